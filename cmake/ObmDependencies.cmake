@@ -1,0 +1,26 @@
+# All third-party packages are found here, once. Everything comes from Debian packages
+# (scripts/setup.sh installs them).
+find_package(Eigen3 3.3 REQUIRED NO_MODULE)
+find_package(Threads REQUIRED)
+find_package(yaml-cpp REQUIRED)
+find_package(nlohmann_json 3 REQUIRED)
+find_package(PNG REQUIRED)
+
+# MRPT 2.x (rawlog, observations)
+find_package(mrpt-obs REQUIRED)
+find_package(mrpt-maps REQUIRED)  # CObservationPointCloud lives in mrpt-maps
+
+# HDF5 (ModelNet40 files), C API
+find_package(HDF5 REQUIRED COMPONENTS C)
+
+find_package(Ceres REQUIRED)
+find_package(octomap REQUIRED)
+find_package(embree 3 REQUIRED)
+find_package(nanoflann QUIET)
+
+if(OBM_WITH_TORCH)
+  find_package(Torch REQUIRED)
+endif()
+if(OBM_WITH_OPEN3D)
+  find_package(Open3D QUIET)
+endif()

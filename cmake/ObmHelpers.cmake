@@ -1,0 +1,68 @@
+# obm_add_library(<name> [SOURCES ...] [PUBLIC_DEPS ...] [PRIVATE_DEPS ...])
+#   Declares target obm_<name> with alias obm::<name>, headers in libs/<name>/include (installed),
+#   warnings on, installed + exported in obmslamTargets. Header-only when no SOURCES.
+function(obm_add_library name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
+  set(tgt obm_${name})
+  if(ARG_SOURCES)
+    add_library(${tgt} ${ARG_SOURCES})
+    set(_scope PUBLIC)
+    target_link_libraries(${tgt} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
+    obm_set_warnings(${tgt})
+    target_include_directories(${tgt} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src)
+  else()
+    add_library(${tgt} INTERFACE)
+    set(_scope INTERFACE)
+    target_link_libraries(${tgt} INTERFACE ${ARG_PUBLIC_DEPS})
+  endif()
+  add_library(obm::${name} ALIAS ${tgt})
+  set_target_properties(${tgt} PROPERTIES EXPORT_NAME ${name} OUTPUT_NAME obm_${name})
+  target_include_directories(${tgt} ${_scope}
+    $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
+  target_compile_features(${tgt} ${_scope} cxx_std_17)
+  install(TARGETS ${tgt} EXPORT obmslamTargets
+    ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+    LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
+    RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+  install(DIRECTORY include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+  set_property(GLOBAL APPEND PROPERTY OBM_LIBRARY_TARGETS ${tgt})
+endfunction()
+
+function(obm_set_warnings tgt)
+  target_compile_options(${tgt} PRIVATE -Wall -Wextra -Wpedantic -Wno-unused-parameter)
+  if(OBM_WARNINGS_AS_ERRORS)
+    target_compile_options(${tgt} PRIVATE -Werror)
+  endif()
+endfunction()
+
+# obm_add_app(<name> SOURCES ... DEPS ...): an installed executable named <name>.
+function(obm_add_app name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS})
+  obm_set_warnings(${name})
+  set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bin)
+  install(TARGETS ${name} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+endfunction()
+
+# obm_add_test(<name> SOURCES ... DEPS ... [LABELS ...]): a GoogleTest executable whose tests are
+# registered one by one with ctest (gtest_discover_tests), labelled with the library name.
+function(obm_add_test name)
+  if(NOT OBM_BUILD_TESTS)
+    return()
+  endif()
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;LABELS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main)
+  target_compile_definitions(${name} PRIVATE
+    OBM_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
+    OBM_BINARY_DIR="${PROJECT_BINARY_DIR}")
+  obm_set_warnings(${name})
+  set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
+  include(GoogleTest)
+  gtest_discover_tests(${name}
+    TEST_PREFIX "${ARG_LABELS}."
+    PROPERTIES LABELS "${ARG_LABELS}"
+    DISCOVERY_TIMEOUT 120)
+endfunction()
