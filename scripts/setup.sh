@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# Installs what obmslam needs from Debian 12 packages, and nothing else. Idempotent: packages that are
+# already installed are not touched; `apt-get update` runs only when the package lists are missing or
+# an install fails for want of them. Needs root or sudo.
+#
+#   scripts/setup.sh            # install missing build + runtime packages
+#   scripts/setup.sh --check    # only report what is missing (exit 1 if anything is)
+set -euo pipefail
+
+PACKAGES=(
+  # toolchain
+  cmake g++ ninja-build ccache pkg-config git
+  # libraries
+  libeigen3-dev libmrpt-dev libtorch-dev libceres-dev liboctomap-dev libgtest-dev libgmock-dev
+  libembree-dev libhdf5-dev libnanoflann-dev libyaml-cpp-dev nlohmann-json3-dev libpng-dev libcli11-dev
+  libopen3d-dev
+  # MRPT tools and datasets (graph-slam, icp-slam peers; /usr/share/mrpt/datasets/*.rawlog test data)
+  mrpt-apps mrpt-common
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [[ "${1:-}" == "--check" ]]; then
+  if ((${#missing[@]})); then echo "missing packages: ${missing[*]}"; exit 1; fi
+  echo "all packages installed"; exit 0
+fi
+
+if ((${#missing[@]} == 0)); then
+  echo "[setup] all ${#PACKAGES[@]} packages already installed"
+  exit 0
+fi
+
+SUDO=""
+if [[ $(id -u) -ne 0 ]]; then
+  if command -v sudo >/dev/null; then SUDO="sudo"; else
+    echo "[setup] error: need root or sudo to install: ${missing[*]}" >&2; exit 1
+  fi
+fi
+export DEBIAN_FRONTEND=noninteractive
+echo "[setup] installing: ${missing[*]}"
+if [[ -z "$(ls -A /var/lib/apt/lists 2>/dev/null | grep -v -e lock -e partial || true)" ]]; then
+  $SUDO apt-get update -qq
+fi
+if ! $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"; then
+  echo "[setup] install failed; refreshing package lists and retrying"
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+echo "[setup] done"
