@@ -8,6 +8,7 @@
 
 #include "obm/core/atomic_file.hpp"
 #include "obm/core/errors.hpp"
+#include "off_codec.hpp"
 #include "ply_codec.hpp"
 #include "text_parse.hpp"
 
@@ -35,16 +36,6 @@ void appendFan(const std::vector<int>& corners, TriangleMesh& mesh) {
     mesh.faces.emplace_back(corners[0], corners[i], corners[i + 1]);
 }
 
-/// Reads the next non-empty, non-comment line; false at the end of the text.
-bool nextDataLine(LineCursor& cur, std::string_view& line) {
-  std::string_view raw;
-  while (cur.next(raw)) {
-    line = stripComment(raw);
-    if (!line.empty()) return true;
-  }
-  return false;
-}
-
 }  // namespace
 
 // ----------------------------------------------------------------------------------------------
@@ -56,70 +47,18 @@ TriangleMesh parseOff(std::string_view text, const std::string& file) {
   LineCursor cur(text);
   std::string_view line;
   std::vector<std::string_view> tok;
-  if (!nextDataLine(cur, line)) throw FormatError(file, 0, "empty file, expected an OFF header");
-  splitBlanks(line, tok);
-  long long probe = 0;
-  if (parseNumber(tok[0], probe)) {
-    // The keyword is optional in Geomview's spec: the first line then holds the counts.
-    tok.insert(tok.begin(), std::string_view("OFF"));
-  }
-  // Keyword: [ST][C][N][4][n]OFF, e.g. OFF, COFF, NOFF, CNOFF, STOFF, 4OFF (Geomview's spec).
-  std::string kw(tok[0]);
-  const std::size_t off_pos = kw.rfind("OFF");
-  if (off_pos == std::string::npos || off_pos + 3 != kw.size())
-    throw FormatError(file, cur.lineNumber(),
-                      "not an OFF file: expected a keyword ending in 'OFF', found '" + kw + "'");
-  const std::string prefix = kw.substr(0, off_pos);
-  bool homogeneous = false;
-  for (std::size_t i = 0; i < prefix.size(); ++i) {
-    const char c = prefix[i];
-    if (c == 'n')
-      throw FormatError(file, cur.lineNumber(), "nOFF (dimension other than 3) is not supported");
-    if (c == '4') homogeneous = true;
-    if (c != 'S' && c != 'T' && c != 'C' && c != 'N' && c != '4')
-      throw FormatError(file, cur.lineNumber(), "unknown OFF keyword '" + kw + "'");
-  }
-  std::size_t first = 1;
-  if (tok.size() > 1 && tok[1] == "BINARY")
-    throw FormatError(file, cur.lineNumber(), "binary OFF is not supported (ascii only)");
-  if (tok.size() == first) {  // counts on the next data line
-    if (!nextDataLine(cur, line))
-      throw FormatError(file, cur.lineNumber(), "missing 'vertices faces edges' counts");
-    splitBlanks(line, tok);
-    first = 0;
-  }
-  long long nv = -1, nf = -1;
-  if (tok.size() < first + 2 || !parseNumber(tok[first], nv) || !parseNumber(tok[first + 1], nf) ||
-      nv < 0 || nf < 0)
-    throw FormatError(file, cur.lineNumber(),
-                      "expected the counts 'vertices faces [edges]' (non-negative integers)");
-  const std::size_t ncoords = homogeneous ? 4 : 3;
-  mesh.vertices.reserve(static_cast<std::size_t>(nv));
-  for (long long v = 0; v < nv; ++v) {
-    if (!nextDataLine(cur, line))
-      throw FormatError(
-          file, cur.lineNumber(),
-          "file ends after " + std::to_string(v) + " of " + std::to_string(nv) + " vertices");
-    splitBlanks(line, tok);
-    if (tok.size() < ncoords)
-      throw FormatError(
-          file, cur.lineNumber(),
-          "vertex " + std::to_string(v) + " needs " + std::to_string(ncoords) + " coordinates");
-    double c[4] = {0, 0, 0, 1};
-    for (std::size_t k = 0; k < ncoords; ++k)
-      c[k] = detail::parseDouble(tok[k], file, cur.lineNumber(), "vertex " + std::to_string(v));
-    if (homogeneous) {
-      if (c[3] == 0.0)
-        throw FormatError(file, cur.lineNumber(), "vertex " + std::to_string(v) + " has w = 0");
-      c[0] /= c[3], c[1] /= c[3], c[2] /= c[3];
-    }
-    mesh.vertices.emplace_back(static_cast<float>(c[0]), static_cast<float>(c[1]),
-                               static_cast<float>(c[2]));
-  }
+  const detail::OffHeader h = detail::parseOffHeader(cur, file);
+  const long long nv = static_cast<long long>(h.num_vertices);
+  const long long nf = static_cast<long long>(h.num_faces);
+  mesh.vertices.resize(h.num_vertices);
+  Color3u8 color;
+  bool has_color = false;
+  for (std::size_t v = 0; v < h.num_vertices; ++v)
+    detail::parseOffVertex(cur, h, v, file, tok, mesh.vertices[v], color, has_color);
   mesh.faces.reserve(static_cast<std::size_t>(nf));
   std::vector<int> corners;
   for (long long f = 0; f < nf; ++f) {
-    if (!nextDataLine(cur, line))
+    if (!detail::nextOffLine(cur, line))
       throw FormatError(
           file, cur.lineNumber(),
           "file ends after " + std::to_string(f) + " of " + std::to_string(nf) + " faces");

@@ -101,7 +101,12 @@ PlyHeader parsePlyHeader(const std::string& file, std::string_view data) {
     splitBlanks(line, tok);
     if (tok.empty()) continue;
     const std::string_view kw = tok[0];
-    if (kw == "comment" || kw == "obj_info") continue;
+    if (kw == "comment") {
+      const std::string_view rest = trim(line);
+      h.comments.emplace_back(trim(rest.substr(std::min<std::size_t>(7, rest.size()))));
+      continue;
+    }
+    if (kw == "obj_info") continue;
     if (kw == "end_header") {
       if (!have_format) throw FormatError(file, ln, "PLY header has no 'format' line");
       // The body starts after the '\n' that ends this line (the spec's line ending; a header

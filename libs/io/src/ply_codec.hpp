@@ -41,8 +41,9 @@ struct PlyElement {
 struct PlyHeader {
   PlyEncoding encoding = PlyEncoding::Ascii;
   std::vector<PlyElement> elements;
-  std::size_t body_offset = 0;      ///< byte offset of the first body byte
-  std::size_t body_first_line = 0;  ///< line number of the first body line (ascii)
+  std::size_t body_offset = 0;        ///< byte offset of the first body byte
+  std::size_t body_first_line = 0;    ///< line number of the first body line (ascii)
+  std::vector<std::string> comments;  ///< text of the `comment` lines, without the keyword
 };
 
 /// Parses the header of `data` (the whole file); throws FormatError(file, line, ...) when it is
