@@ -1,0 +1,163 @@
+#pragma once
+/// \file rawlog.hpp
+/// MRPT rawlogs (MRPT 2.x serialization, gzip-compressed or plain): a streaming reader for both
+/// layouts — "observations only" (a sequence of CObservation objects) and "actions / sensory
+/// frames" (alternating CActionCollection and CSensoryFrame objects) — and a writer of
+/// observations-only rawlogs.
+///
+/// Frames. MRPT gives every observation a `sensorPose`, the pose of the sensor on the vehicle:
+/// T_vehicle_sensor (p_vehicle = T_vehicle_sensor · p_sensor). Clouds returned by the reader are
+/// in the VEHICLE frame (frame_id "vehicle"). MRPT's 3D range cameras (CObservation3DRangeScan)
+/// have a sensor frame with +x forward, +y left, +z up; the camera optical frame of obm::io's
+/// RGB-D code (x right, y down, z forward) is related to it by T_mrptCamera_optical() below, and
+/// the reader also gives T_vehicle_camera = T_vehicle_sensor · T_mrptCamera_optical().
+///
+/// MRPT stays out of this header (pimpl). Errors: IoError when the file cannot be opened or
+/// written, FormatError naming the file and the object index for a corrupt or truncated rawlog or
+/// an object class MRPT does not know.
+#include <array>
+#include <cstddef>
+#include <limits>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "obm/core/point_cloud.hpp"
+#include "obm/core/se3.hpp"
+#include "obm/io/rgbd.hpp"
+
+namespace obm::io {
+
+/// The constant rotation from the camera optical frame (x right, y down, z forward) to MRPT's
+/// 3D-camera frame (x forward, y left, z up): p_mrpt = (z, −x, −y)_optical.
+Isometry3d T_mrptCamera_optical();
+
+/// What the reader turns into points.
+struct RawlogReadOptions {
+  /// [m] ranges outside [min, max] are discarded when a Velodyne scan is turned into points
+  /// (MRPT's TGeneratePointCloudParameters; MRPT's default minimum is 1 m).
+  double velodyne_min_range = 1.0;
+  double velodyne_max_range = 1.0e6;  ///< [m]
+  /// [m] window on the depth along the optical axis for 3D range scans (for range images too);
+  /// 0 in a range image always means "no measurement".
+  double depth_min = 0.0;
+  double depth_max = std::numeric_limits<double>::infinity();  ///< [m]
+  /// When false, only the metadata (class, time, label, pose) is decoded: no clouds, no images.
+  bool generate_clouds = true;
+};
+
+/// One observation of a rawlog, as the reader hands it out.
+struct RawlogObservation {
+  std::string class_name;    ///< MRPT class without namespace, e.g. "CObservationVelodyneScan"
+  std::size_t index = 0;     ///< 0-based position among all observations of the file
+  double timestamp = 0.0;    ///< [s] UNIX time (0 when MRPT's timestamp is invalid)
+  std::string sensor_label;  ///< MRPT's `sensorLabel`
+  Isometry3d T_vehicle_sensor = Isometry3d::Identity();  ///< MRPT's `sensorPose`
+  /// Points in the vehicle frame (frame_id "vehicle", timestamp = `timestamp`); intensity when the
+  /// source has it (Velodyne, CPointsMapXYZI), colours from a CColouredPointsMap.
+  PointCloud cloud;
+
+  /// CObservation3DRangeScan only: the range image and the depth camera's calibration.
+  bool has_depth = false;
+  DepthImage depth;              ///< raw range image (MRPT's `rangeImage`), 0 = no measurement
+  double depth_scale = 1000.0;   ///< raw units per metre (1 / MRPT's `rangeUnits`)
+  bool range_is_depth = true;    ///< true: values are depths along the optical axis; false: ranges
+  PinholeIntrinsics intrinsics;  ///< of the depth camera (MRPT's `cameraParams`)
+  /// Lens distortion of the depth camera, plumb_bob k1 k2 p1 p2 k3 (MRPT's `cameraParams.dist`).
+  /// `cloud` accounts for it (MRPT's unprojection); depthToCloud() on `depth` does not.
+  std::array<double, 5> distortion{};
+  /// Pose of the depth camera's optical frame on the vehicle (T_vehicle_sensor ·
+  /// T_mrptCamera_optical()), so depthToCloud() output maps to the vehicle frame with it.
+  Isometry3d T_vehicle_camera = Isometry3d::Identity();
+};
+
+/// Counters of a reader.
+struct RawlogCounts {
+  std::size_t objects = 0;         ///< top-level serialized objects read
+  std::size_t actions = 0;         ///< CActionCollection objects (skipped)
+  std::size_t sensory_frames = 0;  ///< CSensoryFrame objects
+  std::size_t observations = 0;    ///< observations seen (inside sensory frames or not)
+  std::size_t returned = 0;        ///< observations handed out by next()
+  /// Observations of classes the reader does not convert (e.g. CObservationGPS, and
+  /// CObservationRotatingScan, which MRPT 2.5 cannot turn into points without the scanner's
+  /// calibration), plus top-level objects that are neither observations, sensory frames nor
+  /// actions.
+  std::size_t skipped = 0;
+  std::map<std::string, std::size_t> skipped_by_class;  ///< class name (no namespace) → count
+};
+
+/// Streaming reader: objects are read from the (compressed) file one at a time, so a rawlog of
+/// any size is read in constant memory. Handles CObservationPointCloud,
+/// CObservationVelodyneScan (points generated by MRPT), CObservation3DRangeScan (range image
+/// unprojected with its intrinsics) and CObservation2DRangeScan; other observation classes are
+/// skipped and counted. Other top-level objects (actions, ...) are skipped and counted as well.
+class RawlogReader {
+ public:
+  /// Opens the file; throws IoError when it cannot be opened.
+  explicit RawlogReader(const std::string& path, const RawlogReadOptions& options = {});
+  ~RawlogReader();
+  RawlogReader(RawlogReader&&) noexcept;
+  RawlogReader& operator=(RawlogReader&&) noexcept;
+  RawlogReader(const RawlogReader&) = delete;
+  RawlogReader& operator=(const RawlogReader&) = delete;
+
+  /// Fills `out` with the next supported observation and returns true; false at the end of the
+  /// file. Throws FormatError(file, ...) naming the object index for corrupt or truncated data.
+  bool next(RawlogObservation& out);
+
+  const RawlogCounts& counts() const noexcept;
+  /// Fraction of the (uncompressed) file consumed, in [0, 1], for progress display.
+  double progress() const;
+  const std::string& path() const noexcept;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Reads every supported observation of a rawlog (convenience for small files).
+std::vector<RawlogObservation> readRawlog(const std::string& path,
+                                          const RawlogReadOptions& options = {},
+                                          RawlogCounts* counts = nullptr);
+
+/// Writer of an observations-only rawlog (gzip-compressed, as MRPT's tools write them). Output
+/// goes to a temporary file in the destination folder and is renamed onto `path` by close(); a
+/// writer destroyed without close() (e.g. during an exception) removes the temporary file, so
+/// `path` never holds a partial rawlog.
+class RawlogWriter {
+ public:
+  /// Throws IoError when the folder does not exist or the temporary file cannot be created.
+  /// \param compression_level gzip level 1 (fast) … 9 (small)
+  explicit RawlogWriter(const std::string& path, int compression_level = 1);
+  ~RawlogWriter();
+  RawlogWriter(const RawlogWriter&) = delete;
+  RawlogWriter& operator=(const RawlogWriter&) = delete;
+
+  /// Appends a CObservationPointCloud. `cloud_sensor` is in the SENSOR frame (as MRPT stores
+  /// it); `T_vehicle_sensor` becomes its sensorPose. The map type is CPointsMapXYZI when the cloud
+  /// has intensity, CColouredPointsMap when it has colours only, CSimplePointsMap otherwise.
+  /// Non-finite points are dropped; returns how many were.
+  std::size_t writePointCloud(const PointCloud& cloud_sensor, const Isometry3d& T_vehicle_sensor,
+                              double timestamp, const std::string& sensor_label);
+
+  /// Appends a CObservation3DRangeScan with a range image (`depth`, raw units, `depth_scale` of
+  /// them per metre, values are depths along the optical axis), the depth camera's intrinsics
+  /// (also used for the intensity camera) and the pose of its OPTICAL frame on the vehicle; the
+  /// sensorPose written is T_vehicle_camera · T_mrptCamera_optical()⁻¹. Throws ContractError when
+  /// the image size differs from the intrinsics'.
+  void writeDepth(const DepthImage& depth, double depth_scale, const PinholeIntrinsics& intrinsics,
+                  const Isometry3d& T_vehicle_camera, double timestamp,
+                  const std::string& sensor_label);
+
+  /// Number of observations written so far.
+  std::size_t count() const noexcept;
+  /// Finishes the file and renames it onto the destination. Throws IoError on failure.
+  void close();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace obm::io
