@@ -1,0 +1,205 @@
+#pragma once
+// Ceres residuals of g2o's pose-graph edges (private header; tests include it to check Jacobians).
+//
+// 3D (g2o EdgeSE3): for node poses X_a = (t_a, q_a), X_b = (t_b, q_b) and measurement Z = (t_z,
+// q_z):
+//   Δ = Z⁻¹·X_a⁻¹·X_b,  q_Δ = q_z* ⊗ q_a* ⊗ q_b,  t_Δ = R_zᵀ·(R_aᵀ·(t_b − t_a) − t_z),
+//   e = [t_Δ; s·vec(q_Δ)] with s = sign(w_Δ) (g2o keeps w ≥ 0),   r = W·e,  WᵀW = Ω  (W = Lᵀ).
+// Jacobians are derived in the tangent space of Ceres' EigenQuaternionManifold, whose update is
+// q ← [δ; 1]-exponential ⊗ q (a rotation by 2|δ| applied on the left):
+//   ∂t_Δ/∂t_a = −R_zᵀR_aᵀ,  ∂t_Δ/∂t_b = R_zᵀR_aᵀ,  ∂t_Δ/∂δ_a = 2·R_zᵀR_aᵀ·[t_b − t_a]×,  ∂t_Δ/∂δ_b
+//   = 0, ∂vec(q_Δ)/∂δ_b = G,  ∂vec(q_Δ)/∂δ_a = −G,  G_k = vec(A ⊗ (e_k; 0) ⊗ q_b),  A = q_z* ⊗
+//   q_a*,
+// and lifted to the 4 ambient quaternion coordinates as J_amb = J_δ·Pᵀ, where P is the manifold's
+// PlusJacobian (PᵀP = I at a unit quaternion, so Ceres' product J_amb·P gives back J_δ exactly).
+//
+// 2D (g2o EdgeSE2): e = [R_zᵀ(R_aᵀ(t_b − t_a) − t_z); wrap(θ_b − θ_a − θ_z)], r = W·e.
+#include <ceres/ceres.h>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cmath>
+
+namespace obm::backend::detail {
+
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+
+inline Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
+/// PlusJacobian of ceres::EigenQuaternionManifold at q (rows x, y, z, w; 3 columns).
+inline Eigen::Matrix<double, 4, 3> quaternionPlusJacobian(const Eigen::Quaterniond& q) {
+  Eigen::Matrix<double, 4, 3> P;
+  P << q.w(), q.z(), -q.y(),  //
+      -q.z(), q.w(), q.x(),   //
+      q.y(), -q.x(), q.w(),   //
+      -q.x(), -q.y(), -q.z();
+  return P;
+}
+
+/// g2o EdgeSE3 residual with analytic Jacobians. Parameter blocks: t_a (3), q_a (4, Eigen order
+/// x y z w), t_b (3), q_b (4).
+class EdgeSe3Cost final : public ceres::SizedCostFunction<6, 3, 4, 3, 4> {
+ public:
+  EdgeSe3Cost(const Eigen::Vector3d& t_z, const Eigen::Quaterniond& q_z,
+              const Mat6& sqrt_information)
+      : t_z_(t_z), q_z_inv_(q_z.normalized().conjugate()), W_(sqrt_information) {}
+
+  bool Evaluate(double const* const* p, double* residuals, double** jacobians) const override {
+    const Eigen::Map<const Eigen::Vector3d> t_a(p[0]), t_b(p[2]);
+    const Eigen::Map<const Eigen::Quaterniond> q_a(p[1]), q_b(p[3]);
+    const Eigen::Quaterniond q_a_inv = q_a.conjugate();
+    const Eigen::Quaterniond A = q_z_inv_ * q_a_inv;
+    const Eigen::Quaterniond q_d = A * q_b;
+    const Eigen::Vector3d d = t_b - t_a;
+    const Eigen::Matrix3d M = A.toRotationMatrix();  // R_zᵀ·R_aᵀ
+    const Eigen::Vector3d t_d = M * d - q_z_inv_ * t_z_;
+    const double s = q_d.w() < 0.0 ? -1.0 : 1.0;
+    Eigen::Matrix<double, 6, 1> e;
+    e << t_d, s * q_d.vec();
+    Eigen::Map<Eigen::Matrix<double, 6, 1>> r(residuals);
+    r.noalias() = W_ * e;
+    if (!jacobians) return true;
+
+    using J6x3 = Eigen::Matrix<double, 6, 3>;
+    using J6x4 = Eigen::Matrix<double, 6, 4, Eigen::RowMajor>;
+    Eigen::Matrix3d G;  // ∂vec(q_Δ)/∂δ_b, columns vec(A ⊗ (e_k, 0) ⊗ q_b)
+    if (jacobians[1] || jacobians[3]) {
+      for (int k = 0; k < 3; ++k) {
+        Eigen::Quaterniond u(0.0, 0.0, 0.0, 0.0);
+        u.vec()[k] = 1.0;
+        G.col(k) = s * (A * u * q_b).vec();
+      }
+    }
+    if (jacobians[0]) {
+      J6x3 J = J6x3::Zero();
+      J.topRows<3>() = -M;
+      Eigen::Map<Eigen::Matrix<double, 6, 3, Eigen::RowMajor>>(jacobians[0]).noalias() = W_ * J;
+    }
+    if (jacobians[2]) {
+      J6x3 J = J6x3::Zero();
+      J.topRows<3>() = M;
+      Eigen::Map<Eigen::Matrix<double, 6, 3, Eigen::RowMajor>>(jacobians[2]).noalias() = W_ * J;
+    }
+    if (jacobians[1]) {
+      J6x3 J;
+      J.topRows<3>() = 2.0 * M * skew(d);
+      J.bottomRows<3>() = -G;
+      const J6x3 WJ = W_ * J;
+      Eigen::Map<J6x4>(jacobians[1]).noalias() = WJ * quaternionPlusJacobian(q_a).transpose();
+    }
+    if (jacobians[3]) {
+      J6x3 J;
+      J.topRows<3>().setZero();
+      J.bottomRows<3>() = G;
+      const J6x3 WJ = W_ * J;
+      Eigen::Map<J6x4>(jacobians[3]).noalias() = WJ * quaternionPlusJacobian(q_b).transpose();
+    }
+    return true;
+  }
+
+ private:
+  Eigen::Vector3d t_z_;
+  Eigen::Quaterniond q_z_inv_;
+  Mat6 W_;
+};
+
+/// The same residual for automatic differentiation (reference for the analytic Jacobians).
+struct EdgeSe3AutoDiff {
+  EdgeSe3AutoDiff(const Eigen::Vector3d& t_z, const Eigen::Quaterniond& q_z, const Mat6& W)
+      : t_z(t_z), q_z(q_z.normalized()), W(W) {}
+  template <typename T>
+  bool operator()(const T* ta, const T* qa_, const T* tb, const T* qb_, T* res) const {
+    using V3 = Eigen::Matrix<T, 3, 1>;
+    using Q = Eigen::Quaternion<T>;
+    const Eigen::Map<const V3> t_a(ta), t_b(tb);
+    const Eigen::Map<const Q> q_a(qa_), q_b(qb_);
+    const Q qz_inv = q_z.conjugate().template cast<T>();
+    const Q q_d = qz_inv * q_a.conjugate() * q_b;
+    const V3 t_d = qz_inv * (q_a.conjugate() * (t_b - t_a) - t_z.template cast<T>());
+    const T s = q_d.w() < T(0) ? T(-1) : T(1);
+    Eigen::Matrix<T, 6, 1> e;
+    e << t_d, s * q_d.vec();
+    Eigen::Map<Eigen::Matrix<T, 6, 1>> out(res);
+    out = W.template cast<T>() * e;
+    return true;
+  }
+  Eigen::Vector3d t_z;
+  Eigen::Quaterniond q_z;
+  Mat6 W;
+};
+
+inline double wrapPi(double a) {
+  a = std::fmod(a + M_PI, 2.0 * M_PI);
+  if (a <= 0.0) a += 2.0 * M_PI;
+  return a - M_PI;
+}
+
+/// g2o EdgeSE2 residual with analytic Jacobians. Parameter blocks: (x, y, θ)_a, (x, y, θ)_b.
+class EdgeSe2Cost final : public ceres::SizedCostFunction<3, 3, 3> {
+ public:
+  EdgeSe2Cost(double x, double y, double theta, const Eigen::Matrix3d& sqrt_information)
+      : tz_(x, y), th_z_(theta), cz_(std::cos(theta)), sz_(std::sin(theta)), W_(sqrt_information) {}
+
+  bool Evaluate(double const* const* p, double* residuals, double** jacobians) const override {
+    const double* a = p[0];
+    const double* b = p[1];
+    const double ca = std::cos(a[2]), sa = std::sin(a[2]);
+    const double dx = b[0] - a[0], dy = b[1] - a[1];
+    const double tx = ca * dx + sa * dy, ty = -sa * dx + ca * dy;  // R_aᵀ(t_b − t_a)
+    const double ex = tx - tz_.x(), ey = ty - tz_.y();
+    const Eigen::Vector3d e(cz_ * ex + sz_ * ey, -sz_ * ex + cz_ * ey, wrapPi(b[2] - a[2] - th_z_));
+    Eigen::Map<Eigen::Vector3d> r(residuals);
+    r.noalias() = W_ * e;
+    if (!jacobians) return true;
+    // M = R_zᵀ·R_aᵀ (rotation by −(θ_a + θ_z))
+    const double cm = cz_ * ca - sz_ * sa, sm = sz_ * ca + cz_ * sa;  // cos, sin of θ_a + θ_z
+    Eigen::Matrix3d Jb;
+    Jb << cm, sm, 0, -sm, cm, 0, 0, 0, 1;
+    if (jacobians[0]) {
+      Eigen::Matrix3d Ja;
+      Ja << -cm, -sm, cz_ * ty - sz_ * tx,  //
+          sm, -cm, -sz_ * ty - cz_ * tx,    //
+          0, 0, -1;
+      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(jacobians[0]).noalias() = W_ * Ja;
+    }
+    if (jacobians[1])
+      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(jacobians[1]).noalias() = W_ * Jb;
+    return true;
+  }
+
+ private:
+  Eigen::Vector2d tz_;
+  double th_z_, cz_, sz_;
+  Eigen::Matrix3d W_;
+};
+
+/// Dynamic covariance scaling (Agarwal et al., ICRA 2013) as a Ceres loss on s = χ² of an edge.
+/// DCS scales the residual by k = min(1, 2Φ/(Φ + s)), i.e. weights the edge's normal equations by
+/// k². This is the M-estimator whose IRLS weight ρ'(s) is exactly that k²:
+///   ρ(s) = s (s ≤ Φ),   ρ(s) = 3Φ − 4Φ²/(Φ + s) (s > Φ),   continuous with ρ' at s = Φ,
+/// so Ceres' trust-region step acceptance sees a cost consistent with its gradient.
+class DcsLoss final : public ceres::LossFunction {
+ public:
+  explicit DcsLoss(double phi) : phi_(phi) {}
+  void Evaluate(double s, double rho[3]) const override {
+    if (s <= phi_) {
+      rho[0] = s;
+      rho[1] = 1.0;
+      rho[2] = 0.0;
+      return;
+    }
+    const double d = phi_ + s, p2 = phi_ * phi_;
+    rho[0] = 3.0 * phi_ - 4.0 * p2 / d;
+    rho[1] = 4.0 * p2 / (d * d);
+    rho[2] = -8.0 * p2 / (d * d * d);
+  }
+
+ private:
+  double phi_;
+};
+
+}  // namespace obm::backend::detail

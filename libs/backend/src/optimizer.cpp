@@ -1,0 +1,515 @@
+// Ceres pose-graph optimizer minimising g2o's χ² (see cost_functions.hpp for the residuals).
+#include "obm/backend/optimizer.hpp"
+
+#include <ceres/ceres.h>
+
+#include <array>
+#include <cmath>
+#include <deque>
+#include <map>
+#include <numeric>
+#include <sstream>
+#include <thread>
+#include <unordered_map>
+
+#include "cost_functions.hpp"
+#include "information.hpp"
+#include "obm/backend/metrics.hpp"
+#include "obm/config/config_node.hpp"
+#include "obm/core/errors.hpp"
+#include "obm/core/log.hpp"
+#include "obm/core/timer.hpp"
+
+namespace obm::backend {
+namespace {
+
+constexpr const char* kLog = "backend.optimizer";
+
+class CallbackAdapter final : public ceres::IterationCallback {
+ public:
+  CallbackAdapter(std::vector<IterationInfo>& out,
+                  const std::function<void(const IterationInfo&)>& cb)
+      : out_(out), cb_(cb) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    IterationInfo it;
+    it.iteration = s.iteration;
+    it.cost = 2.0 * s.cost;  // Ceres' cost is ½Σρ(‖r‖²)
+    it.cost_change = 2.0 * s.cost_change;
+    it.gradient_max_norm = s.gradient_max_norm;
+    it.step_norm = s.step_norm;
+    it.trust_region_radius = s.trust_region_radius;
+    it.step_is_successful = s.step_is_successful;
+    it.time_s = s.cumulative_time_in_seconds;
+    out_.push_back(it);
+    if (cb_) cb_(it);
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  std::vector<IterationInfo>& out_;
+  const std::function<void(const IterationInfo&)>& cb_;
+};
+
+double parseScale(const std::string& spec, const std::string& text) {
+  std::size_t pos = 0;
+  double v = 0.0;
+  try {
+    v = std::stod(text, &pos);
+  } catch (const std::exception&) {
+    pos = 0;
+  }
+  if (pos != text.size() || !(v > 0.0) || !std::isfinite(v))
+    throw ConfigError("robust loss '" + spec + "': scale must be a positive number");
+  return v;
+}
+
+}  // namespace
+
+EdgeLoss parseLoss(const std::string& spec) {
+  const auto colon = spec.find(':');
+  const std::string kind = spec.substr(0, colon);
+  EdgeLoss l;
+  l.scale = colon == std::string::npos ? 1.0 : parseScale(spec, spec.substr(colon + 1));
+  if (kind == "none")
+    l.kind = LossKind::None;
+  else if (kind == "huber")
+    l.kind = LossKind::Huber;
+  else if (kind == "cauchy")
+    l.kind = LossKind::Cauchy;
+  else if (kind == "dcs")
+    l.kind = LossKind::Dcs;
+  else
+    throw ConfigError("unknown robust loss '" + spec +
+                      "' (expected none, huber[:δ], cauchy[:c] or dcs[:Φ])");
+  return l;
+}
+
+std::string toString(const EdgeLoss& l) {
+  std::ostringstream os;
+  switch (l.kind) {
+    case LossKind::Default:
+      return "default";
+    case LossKind::None:
+      return "none";
+    case LossKind::Huber:
+      os << "huber:" << l.scale;
+      break;
+    case LossKind::Cauchy:
+      os << "cauchy:" << l.scale;
+      break;
+    case LossKind::Dcs:
+      os << "dcs:" << l.scale;
+      break;
+  }
+  return os.str();
+}
+
+Options Options::load(const ConfigNode& n) {
+  Options o;
+  n.checkKeys({"init", "max_iterations", "num_threads", "function_tolerance", "gradient_tolerance",
+               "parameter_tolerance", "loop_loss", "odometry_loss", "robust_init", "fixed"});
+  if (n.has("init")) {
+    try {
+      o.init = parseInitMethod(n.required<std::string>("init"));
+    } catch (const ConfigError& e) {
+      throw ConfigError(n.where("init") + ": " + e.what());
+    }
+  }
+  n.get("max_iterations", o.max_iterations);
+  n.get("num_threads", o.num_threads);
+  n.get("function_tolerance", o.function_tolerance);
+  n.get("gradient_tolerance", o.gradient_tolerance);
+  n.get("parameter_tolerance", o.parameter_tolerance);
+  auto loss = [&](const char* key, EdgeLoss& out) {
+    if (!n.has(key)) return;
+    try {
+      out = parseLoss(n.required<std::string>(key));
+    } catch (const ConfigError& e) {
+      throw ConfigError(n.where(key) + ": " + e.what());
+    }
+  };
+  loss("loop_loss", o.loop_loss);
+  loss("odometry_loss", o.odometry_loss);
+  if (n.has("robust_init")) {
+    const auto v = n.required<std::string>("robust_init");
+    if (v == "odometry")
+      o.robust_init = RobustInit::Odometry;
+    else if (v == "chordal")
+      o.robust_init = RobustInit::Chordal;
+    else if (v == "robust_chordal")
+      o.robust_init = RobustInit::RobustChordal;
+    else
+      throw ConfigError(n.where("robust_init") + ": unknown value '" + v +
+                        "' (expected odometry, chordal or robust_chordal)");
+  }
+  n.get("fixed", o.fixed);
+  if (o.max_iterations < 0) throw ConfigError(n.where("max_iterations") + ": must be ≥ 0");
+  if (o.num_threads < 0) throw ConfigError(n.where("num_threads") + ": must be ≥ 0");
+  return o;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+struct Optimizer::Impl {
+  Options opt;
+  PoseGraph graph;
+  bool initialized = false;
+  std::function<void(const IterationInfo&)> callback;
+
+  // Ceres state, rebuilt by setGraph, extended by addNode/addEdge.
+  std::unique_ptr<ceres::Problem> problem;
+  std::unique_ptr<ceres::Manifold> quat_manifold =
+      std::make_unique<ceres::EigenQuaternionManifold>();
+  std::map<std::pair<int, double>, std::unique_ptr<ceres::LossFunction>> losses;
+  std::deque<std::array<double, 7>> blocks;  // 3D: t(3) q(4: x y z w); 2D: x y θ
+  std::unordered_map<NodeId, double*> block_of;
+  std::size_t edges_in_problem = 0;
+
+  explicit Impl(Options o) : opt(std::move(o)) {}
+
+  void reset() {
+    problem.reset();
+    blocks.clear();
+    block_of.clear();
+    edges_in_problem = 0;
+  }
+
+  ceres::Problem& ensureProblem() {
+    if (!problem) {
+      ceres::Problem::Options po;
+      po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+      po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+      po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+      problem = std::make_unique<ceres::Problem>(po);
+    }
+    return *problem;
+  }
+
+  ceres::LossFunction* lossFor(const EdgeLoss& edge_loss, bool is_loop) {
+    EdgeLoss l = edge_loss;
+    if (l.kind == LossKind::Default) l = is_loop ? opt.loop_loss : opt.odometry_loss;
+    if (l.kind == LossKind::None || l.kind == LossKind::Default) return nullptr;
+    auto& slot = losses[{int(l.kind), l.scale}];
+    if (!slot) {
+      switch (l.kind) {
+        case LossKind::Huber:
+          slot = std::make_unique<ceres::HuberLoss>(l.scale);
+          break;
+        case LossKind::Cauchy:
+          slot = std::make_unique<ceres::CauchyLoss>(l.scale);
+          break;
+        case LossKind::Dcs:
+          slot = std::make_unique<detail::DcsLoss>(l.scale);
+          break;
+        default:
+          break;
+      }
+    }
+    return slot.get();
+  }
+
+  double* addBlock(NodeId id) {
+    auto& b = blocks.emplace_back();
+    b.fill(0.0);
+    double* p = b.data();
+    block_of[id] = p;
+    auto& pr = ensureProblem();
+    if (graph.is3D()) {
+      pr.AddParameterBlock(p, 3);
+      pr.AddParameterBlock(p + 3, 4, quat_manifold.get());
+    } else {
+      pr.AddParameterBlock(p, 3);
+    }
+    return p;
+  }
+
+  void addResidual(std::size_t k) {
+    auto& pr = ensureProblem();
+    if (graph.is3D()) {
+      const Edge3& e = graph.edges3[k];
+      double* a = block_of.at(e.from);
+      double* b = block_of.at(e.to);
+      auto* cost = new detail::EdgeSe3Cost(e.T_from_to.t, e.T_from_to.q,
+                                           detail::sqrtInformation<6>(e.information));
+      pr.AddResidualBlock(cost, lossFor(e.loss, e.is_loop), a, a + 3, b, b + 3);
+    } else {
+      const Edge2& e = graph.edges2[k];
+      auto* cost = new detail::EdgeSe2Cost(e.T_from_to.x, e.T_from_to.y, e.T_from_to.theta,
+                                           detail::sqrtInformation<3>(e.information));
+      pr.AddResidualBlock(cost, lossFor(e.loss, e.is_loop), block_of.at(e.from), block_of.at(e.to));
+    }
+  }
+
+  /// Adds the parameter/residual blocks for nodes and edges not yet in the problem.
+  void syncProblem() {
+    for (NodeId id : graph.nodeIds())
+      if (!block_of.count(id)) addBlock(id);
+    for (; edges_in_problem < graph.numEdges(); ++edges_in_problem) addResidual(edges_in_problem);
+  }
+
+  void posesToBlocks() {
+    if (graph.is3D()) {
+      for (const auto& [id, n] : graph.nodes3) {
+        double* p = block_of.at(id);
+        Eigen::Map<Eigen::Vector3d> t(p);
+        Eigen::Map<Eigen::Quaterniond> q(p + 3);
+        t = n.T_world_node.t;
+        q = n.T_world_node.q.normalized();
+      }
+    } else {
+      for (const auto& [id, n] : graph.nodes2) {
+        double* p = block_of.at(id);
+        p[0] = n.T_world_node.x;
+        p[1] = n.T_world_node.y;
+        p[2] = n.T_world_node.theta;
+      }
+    }
+  }
+
+  void blocksToPoses() {
+    if (graph.is3D()) {
+      for (auto& [id, n] : graph.nodes3) {
+        const double* p = block_of.at(id);
+        n.T_world_node = Pose3(Eigen::Vector3d(p[0], p[1], p[2]),
+                               Eigen::Quaterniond(p[6], p[3], p[4], p[5]).normalized());
+      }
+    } else {
+      for (auto& [id, n] : graph.nodes2) {
+        const double* p = block_of.at(id);
+        n.T_world_node = Pose2(p[0], p[1], p[2]);  // θ wrapped to (−π, π]
+      }
+    }
+  }
+
+  /// Gauge: the fixed nodes, plus the lowest id of every connected component without one.
+  std::vector<bool> gaugeFixed(const std::vector<NodeId>& ids,
+                               const std::unordered_map<NodeId, int>& index) const {
+    const int n = int(ids.size());
+    std::vector<int> parent(n);
+    std::iota(parent.begin(), parent.end(), 0);
+    auto find = [&](int x) {
+      while (parent[x] != x) x = parent[x] = parent[parent[x]];
+      return x;
+    };
+    auto unite = [&](NodeId a, NodeId b) { parent[find(index.at(a))] = find(index.at(b)); };
+    if (graph.is3D())
+      for (const auto& e : graph.edges3) unite(e.from, e.to);
+    else
+      for (const auto& e : graph.edges2) unite(e.from, e.to);
+    std::vector<bool> fixed(n, false), comp_fixed(n, false);
+    auto fix = [&](NodeId id) {
+      const auto it = index.find(id);
+      if (it == index.end())
+        throw ContractError("fixed node " + std::to_string(id) + " does not exist");
+      fixed[it->second] = true;
+      comp_fixed[find(it->second)] = true;
+    };
+    for (NodeId id : graph.fixed) fix(id);
+    for (NodeId id : opt.fixed) fix(id);
+    for (int i = 0; i < n; ++i)  // ids ascending: the first node seen in a component is its lowest
+      if (!comp_fixed[find(i)]) {
+        comp_fixed[find(i)] = true;
+        fixed[i] = true;
+      }
+    return fixed;
+  }
+
+  Summary optimize() {
+    Timer total;
+    Summary s;
+    graph.validate();
+    s.initial_chi2 = chi2(graph);
+    s.num_nodes = graph.numNodes();
+    s.num_edges = graph.numEdges();
+
+    Timer init_timer;
+    if (!initialized) {
+      InitMethod m = opt.init;
+      const bool robust = opt.loop_loss.kind != LossKind::None;
+      if (m == InitMethod::Chordal && robust && opt.robust_init == Options::RobustInit::Odometry) {
+        m = InitMethod::Spanning;
+        initialize(graph, m);
+      } else if (m == InitMethod::Chordal && robust &&
+                 opt.robust_init == Options::RobustInit::RobustChordal) {
+        const double phi = opt.loop_loss.kind == LossKind::Dcs
+                               ? opt.loop_loss.scale
+                               : opt.loop_loss.scale * opt.loop_loss.scale;
+        initializeRobustChordal(graph, phi);
+      } else {
+        initialize(graph, m);
+      }
+      s.init = m;
+      initialized = true;
+    }
+    s.init_time_s = init_timer.seconds();
+    s.init_chi2 = chi2(graph);
+
+    Timer solve_timer;
+    syncProblem();
+    posesToBlocks();
+    const auto ids = graph.nodeIds();
+    std::unordered_map<NodeId, int> index;
+    index.reserve(ids.size());
+    for (std::size_t i = 0; i < ids.size(); ++i) index[ids[i]] = int(i);
+    const auto fixed = gaugeFixed(ids, index);
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+      double* p = block_of.at(ids[i]);
+      const int nb = graph.is3D() ? 2 : 1;
+      double* bl[2] = {p, p + 3};
+      for (int b = 0; b < nb; ++b) {
+        if (fixed[i])
+          problem->SetParameterBlockConstant(bl[b]);
+        else
+          problem->SetParameterBlockVariable(bl[b]);
+      }
+      s.num_fixed += fixed[i] ? 1 : 0;
+    }
+
+    if (graph.numEdges() == 0 || opt.max_iterations == 0) {
+      s.final_chi2 = chi2(graph);
+      s.converged = graph.numEdges() == 0;
+      s.usable = true;
+      s.message = graph.numEdges() == 0 ? "no edges" : "max_iterations = 0";
+      s.solve_time_s = solve_timer.seconds();
+      s.time_s = total.seconds();
+      return s;
+    }
+
+    ceres::Solver::Options so;
+    so.minimizer_type = ceres::TRUST_REGION;
+    so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+    so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+    so.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+    so.max_num_iterations = opt.max_iterations;
+    so.function_tolerance = opt.function_tolerance;
+    so.gradient_tolerance = opt.gradient_tolerance;
+    so.parameter_tolerance = opt.parameter_tolerance;
+    const int hw = std::max(1u, std::thread::hardware_concurrency());
+    so.num_threads = opt.num_threads > 0 ? opt.num_threads : int(hw);
+    // Threads only pay off when there is enough Jacobian work per iteration.
+    if (opt.num_threads == 0 && graph.numEdges() < 2000) so.num_threads = 1;
+    so.logging_type = ceres::SILENT;
+    so.minimizer_progress_to_stdout = false;
+    CallbackAdapter cb(s.per_iteration, callback);
+    so.callbacks.push_back(&cb);
+
+    ceres::Solver::Summary cs;
+    ceres::Solve(so, problem.get(), &cs);
+    blocksToPoses();
+    s.iterations = cs.num_successful_steps + cs.num_unsuccessful_steps;
+    s.converged = cs.termination_type == ceres::CONVERGENCE;
+    s.usable = cs.IsSolutionUsable();
+    s.message = cs.message;
+    s.solve_time_s = solve_timer.seconds();
+    s.time_s = total.seconds();
+    s.final_chi2 = chi2(graph);
+    if (!s.usable) OBM_LOG_WARN(kLog, "solver failed: " << cs.message);
+    return s;
+  }
+
+  void checkEdgeEnds(NodeId from, NodeId to) const {
+    if (!graph.hasNode(from))
+      throw ContractError("edge source node " + std::to_string(from) + " does not exist");
+    if (!graph.hasNode(to))
+      throw ContractError("edge target node " + std::to_string(to) + " does not exist");
+    if (from == to) throw ContractError("edge joins node " + std::to_string(from) + " to itself");
+  }
+};
+
+Optimizer::Optimizer(Options options) : impl_(std::make_unique<Impl>(std::move(options))) {}
+Optimizer::Optimizer(PoseGraph graph, Options options) : Optimizer(std::move(options)) {
+  setGraph(std::move(graph));
+}
+Optimizer::~Optimizer() = default;
+Optimizer::Optimizer(Optimizer&&) noexcept = default;
+Optimizer& Optimizer::operator=(Optimizer&&) noexcept = default;
+
+void Optimizer::setGraph(PoseGraph graph) {
+  graph.validate();
+  impl_->reset();
+  impl_->graph = std::move(graph);
+  impl_->initialized = false;
+}
+
+void Optimizer::addNode(NodeId id, const Isometry3d& T_world_node) {
+  auto& g = impl_->graph;
+  if (g.numNodes() == 0 && g.numEdges() == 0) g.dimension = 3;
+  OBM_ASSERT(g.is3D(), "addNode(Isometry3d) on a 2D graph");
+  OBM_ASSERT(!g.hasNode(id), "node " + std::to_string(id) + " already exists");
+  OBM_ASSERT(T_world_node.matrix().allFinite(), "node " + std::to_string(id) + ": non-finite pose");
+  g.nodes3.emplace(id, Node3{id, Pose3::fromIsometry(T_world_node)});
+  if (impl_->problem) impl_->addBlock(id);
+}
+
+void Optimizer::addNode(NodeId id, const Pose2& T_world_node) {
+  auto& g = impl_->graph;
+  if (g.numNodes() == 0 && g.numEdges() == 0) g.dimension = 2;
+  OBM_ASSERT(!g.is3D(), "addNode(Pose2) on a 3D graph");
+  OBM_ASSERT(!g.hasNode(id), "node " + std::to_string(id) + " already exists");
+  g.nodes2.emplace(id, Node2{id, T_world_node});
+  if (impl_->problem) impl_->addBlock(id);
+}
+
+void Optimizer::addEdge(const Edge3& edge) {
+  auto& g = impl_->graph;
+  OBM_ASSERT(g.is3D(), "addEdge(Edge3) on a 2D graph");
+  impl_->checkEdgeEnds(edge.from, edge.to);
+  Edge3 e = edge;
+  const auto st = detail::checkInformation<6>(e.information, false);
+  if (st != detail::InfoStatus::Ok)
+    throw ContractError("edge " + std::to_string(e.from) + " -> " + std::to_string(e.to) + ": " +
+                        detail::describe(st));
+  g.edges3.push_back(e);
+}
+
+void Optimizer::addEdge(const Edge2& edge) {
+  auto& g = impl_->graph;
+  OBM_ASSERT(!g.is3D(), "addEdge(Edge2) on a 3D graph");
+  impl_->checkEdgeEnds(edge.from, edge.to);
+  Edge2 e = edge;
+  const auto st = detail::checkInformation<3>(e.information, false);
+  if (st != detail::InfoStatus::Ok)
+    throw ContractError("edge " + std::to_string(e.from) + " -> " + std::to_string(e.to) + ": " +
+                        detail::describe(st));
+  g.edges2.push_back(e);
+}
+
+void Optimizer::setFixed(NodeId id, bool fixed) {
+  OBM_ASSERT(impl_->graph.hasNode(id), "node " + std::to_string(id) + " does not exist");
+  if (fixed)
+    impl_->graph.fixed.insert(id);
+  else
+    impl_->graph.fixed.erase(id);
+}
+
+void Optimizer::setIterationCallback(std::function<void(const IterationInfo&)> cb) {
+  impl_->callback = std::move(cb);
+}
+
+Summary Optimizer::optimize() {
+  return impl_->optimize();
+}
+const PoseGraph& Optimizer::graph() const {
+  return impl_->graph;
+}
+Isometry3d Optimizer::pose(NodeId id) const {
+  return impl_->graph.isometry(id);
+}
+Pose2 Optimizer::pose2(NodeId id) const {
+  OBM_ASSERT(!impl_->graph.is3D(), "pose2() on a 3D graph");
+  const auto it = impl_->graph.nodes2.find(id);
+  OBM_ASSERT(it != impl_->graph.nodes2.end(), "node " + std::to_string(id) + " does not exist");
+  return it->second.T_world_node;
+}
+const Options& Optimizer::options() const {
+  return impl_->opt;
+}
+
+Summary optimizeGraph(PoseGraph& graph, const Options& options) {
+  Optimizer o(std::move(graph), options);
+  const Summary s = o.optimize();
+  graph = o.graph();
+  return s;
+}
+
+}  // namespace obm::backend

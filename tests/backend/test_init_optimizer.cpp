@@ -1,0 +1,240 @@
+// Initialisation (spanning tree, chordal), the optimizer (local optimality of g2o's χ², gauge,
+// incremental use) and the robust mode against injected wrong loop closures.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "obm/backend/initialization.hpp"
+#include "obm/backend/metrics.hpp"
+#include "obm/backend/optimizer.hpp"
+#include "obm/backend/synthetic.hpp"
+#include "obm/config/config_node.hpp"
+#include "obm/core/errors.hpp"
+
+using namespace obm;
+using namespace obm::backend;
+
+namespace {
+
+SyntheticSpec sphereSpec(double st, double sr, std::uint64_t seed = 1) {
+  SyntheticSpec s;
+  s.dimension = 3;
+  s.rings = 8;
+  s.nodes_per_ring = 16;
+  s.sigma_translation = st;
+  s.sigma_rotation = sr;
+  s.seed = seed;
+  return s;
+}
+
+SyntheticSpec gridSpec(double st, double sr, std::uint64_t seed = 1, int steps = 300) {
+  SyntheticSpec s;
+  s.dimension = 2;
+  s.steps = steps;
+  s.sigma_translation = st;
+  s.sigma_rotation = sr;
+  s.seed = seed;
+  return s;
+}
+
+double maxRotationError(const PoseGraph& a, const PoseGraph& b) {
+  double m = 0;
+  for (NodeId id : a.nodeIds())
+    m = std::max(
+        m, rotationAngle((a.isometry(id).rotation().transpose() * b.isometry(id).rotation())));
+  return m;
+}
+
+}  // namespace
+
+TEST(Initialization, ChordalRecoversNoiselessGraphExactly) {
+  for (int dim : {2, 3}) {
+    auto syn = makeSyntheticGraph(dim == 3 ? sphereSpec(1e-9, 1e-9) : gridSpec(1e-9, 1e-9));
+    PoseGraph g = syn.graph;
+    // Start from a useless guess: everything at the origin except the gauge root.
+    for (auto& [id, n] : g.nodes3)
+      if (id != 0) n.T_world_node = Pose3();
+    for (auto& [id, n] : g.nodes2)
+      if (id != 0) n.T_world_node = Pose2();
+    initializeChordal(g);
+    const auto ate = absoluteTrajectoryError(g, syn.ground_truth, /*align=*/false);
+    EXPECT_LT(ate.max, 1e-6) << dim << "D";
+    EXPECT_LT(maxRotationError(g, syn.ground_truth), 1e-6) << dim << "D";
+  }
+}
+
+TEST(Initialization, SpanningTreeComposesOdometry) {
+  auto syn = makeSyntheticGraph(gridSpec(0.0, 0.0));
+  PoseGraph g = syn.graph;
+  for (auto& [id, n] : g.nodes2)
+    if (id != 0) n.T_world_node = Pose2(5, 5, 1);
+  initializeSpanningTree(g, true);
+  EXPECT_LT(absoluteTrajectoryError(g, syn.ground_truth, false).max, 1e-9);
+}
+
+TEST(Initialization, ChordalBeatsOdometryOnNoisySphere) {
+  auto syn = makeSyntheticGraph(sphereSpec(0.05, 0.02));
+  PoseGraph odo = syn.graph, cho = syn.graph;
+  initializeSpanningTree(odo, true);
+  initializeChordal(cho);
+  const double c_odo = chi2(odo), c_cho = chi2(cho);
+  EXPECT_LT(c_cho, 0.1 * c_odo) << c_cho << " vs " << c_odo;
+  EXPECT_LT(absoluteTrajectoryError(cho, syn.ground_truth).rmse,
+            absoluteTrajectoryError(odo, syn.ground_truth).rmse);
+}
+
+TEST(Optimizer, SolutionIsALocalMinimumOfG2oChi2) {
+  for (int dim : {2, 3}) {
+    auto syn = makeSyntheticGraph(dim == 3 ? sphereSpec(0.05, 0.02) : gridSpec(0.05, 0.02));
+    PoseGraph g = syn.graph;
+    const Summary s = optimizeGraph(g, Options{});
+    EXPECT_TRUE(s.converged) << s.message;
+    EXPECT_NEAR(s.final_chi2, chi2(g), 1e-9 * s.final_chi2);
+    EXPECT_LT(s.final_chi2, s.init_chi2);
+    // With Ω matching the noise, χ² at the optimum ≈ (#residuals − #unknowns).
+    const double dof =
+        double(g.numEdges() * (dim == 3 ? 6 : 3)) - double((g.numNodes() - 1) * (dim == 3 ? 6 : 3));
+    EXPECT_GT(s.final_chi2, 0.5 * dof);
+    EXPECT_LT(s.final_chi2, 1.5 * dof);
+    // No small move of any node lowers g2o's χ².
+    std::mt19937_64 rng(9);
+    std::normal_distribution<double> n(0, 1);
+    const double base = chi2(g);
+    for (NodeId id : {NodeId(5), NodeId(40), NodeId(100)}) {
+      for (int trial = 0; trial < 6; ++trial) {
+        PoseGraph p = g;
+        if (dim == 3) {
+          auto& T = p.nodes3.at(id).T_world_node;
+          T.t += 1e-4 * Eigen::Vector3d(n(rng), n(rng), n(rng));
+          T.q = (Eigen::Quaterniond(expSO3(1e-4 * Eigen::Vector3d(n(rng), n(rng), n(rng)))) * T.q)
+                    .normalized();
+        } else {
+          auto& T = p.nodes2.at(id).T_world_node;
+          T.x += 1e-4 * n(rng);
+          T.y += 1e-4 * n(rng);
+          T.theta += 1e-4 * n(rng);
+        }
+        EXPECT_GE(chi2(p), base - 1e-7 * base) << dim << "D node " << id;
+      }
+    }
+  }
+}
+
+TEST(Optimizer, GaugeKeepsFixedNodes) {
+  auto syn = makeSyntheticGraph(sphereSpec(0.05, 0.02));
+  PoseGraph g = syn.graph;
+  g.fixed = {3};
+  const Pose3 before3 = g.nodes3.at(3).T_world_node;
+  const Pose3 before0 = g.nodes3.at(0).T_world_node;
+  Options o;
+  o.init = InitMethod::File;
+  o.fixed = {7};
+  const Pose3 before7 = g.nodes3.at(7).T_world_node;
+  optimizeGraph(g, o);
+  EXPECT_LT((g.nodes3.at(3).T_world_node.t - before3.t).norm(), 1e-12);
+  EXPECT_LT((g.nodes3.at(7).T_world_node.t - before7.t).norm(), 1e-12);
+  EXPECT_GT((g.nodes3.at(0).T_world_node.t - before0.t).norm(), 1e-6);  // not fixed any more
+}
+
+TEST(Optimizer, DisconnectedComponentsAreEachAnchored) {
+  PoseGraph g;
+  g.dimension = 2;
+  for (NodeId i = 0; i < 6; ++i) g.nodes2[i] = Node2{i, Pose2(double(i), 0.1 * double(i), 0)};
+  for (NodeId i : {0, 1, 3, 4}) {
+    Edge2 e;
+    e.from = i;
+    e.to = i + 1;
+    e.T_from_to = Pose2(1, 0, 0);
+    g.edges2.push_back(e);
+  }
+  const Summary s = optimizeGraph(g, Options{});
+  EXPECT_TRUE(s.usable) << s.message;
+  EXPECT_NEAR(s.final_chi2, 0.0, 1e-12);
+  EXPECT_EQ(s.num_fixed, 2u);
+}
+
+TEST(Optimizer, IncrementalMatchesBatch) {
+  auto syn = makeSyntheticGraph(gridSpec(0.05, 0.02, 4));
+  PoseGraph batch = syn.graph;
+  Options o;
+  o.init = InitMethod::File;
+  const Summary sb = optimizeGraph(batch, o);
+
+  // Feed nodes in id order with the odometry guess from the current estimate, edges as soon as
+  // both ends exist, re-optimising every 50 nodes (as the mapping app does).
+  Optimizer inc(o);
+  const auto& G = syn.graph;
+  std::size_t next_edge = 0;
+  std::vector<const Edge2*> pending;
+  for (const auto& e : G.edges2) pending.push_back(&e);
+  for (const auto& [id, n] : G.nodes2) {
+    if (id == 0)
+      inc.addNode(id, n.T_world_node);
+    else {
+      const Edge2* odo = nullptr;
+      for (const auto& e : G.edges2)
+        if (e.to == id && e.from == id - 1) odo = &e;
+      ASSERT_NE(odo, nullptr);
+      inc.addNode(id, inc.pose2(id - 1) * odo->T_from_to);
+    }
+    for (auto it = pending.begin(); it != pending.end();) {
+      if (inc.graph().hasNode((*it)->from) && inc.graph().hasNode((*it)->to)) {
+        inc.addEdge(**it);
+        it = pending.erase(it);
+        ++next_edge;
+      } else {
+        ++it;
+      }
+    }
+    if (id % 50 == 49) inc.optimize();
+  }
+  const Summary si = inc.optimize();
+  EXPECT_EQ(next_edge, G.edges2.size());
+  EXPECT_NEAR(si.final_chi2, sb.final_chi2, 1e-6 * sb.final_chi2);
+  EXPECT_LT(absoluteTrajectoryError(inc.graph(), batch).rmse, 1e-4);
+}
+
+TEST(Optimizer, RobustModeRejectsWrongLoops) {
+  for (int dim : {2, 3}) {
+    auto syn =
+        makeSyntheticGraph(dim == 3 ? sphereSpec(0.05, 0.01, 2) : gridSpec(0.05, 0.01, 2, 1500));
+    PoseGraph clean = syn.graph;
+    optimizeGraph(clean, Options{});
+    const double ate_clean = absoluteTrajectoryError(clean, syn.ground_truth).rmse;
+
+    PoseGraph bad = syn.graph;
+    const std::size_t n_wrong = injectWrongLoops(bad, 0.1, 77);
+    ASSERT_GT(n_wrong, 3u);
+    PoseGraph plain = bad, robust = bad;
+    optimizeGraph(plain, Options{});
+    Options ro;
+    // Φ at the 99 % quantile of the χ² of a correct edge (calibrated noise: χ²(6) resp. χ²(3)).
+    ro.loop_loss = parseLoss(dim == 3 ? "dcs:16.8" : "dcs:11.3");
+    const Summary s = optimizeGraph(robust, ro);
+    EXPECT_TRUE(s.usable);
+    const double ate_plain = absoluteTrajectoryError(plain, syn.ground_truth).rmse;
+    const double ate_robust = absoluteTrajectoryError(robust, syn.ground_truth).rmse;
+    EXPECT_LT(ate_robust, 2.0 * ate_clean)
+        << dim << "D clean " << ate_clean << " robust " << ate_robust;
+    EXPECT_GT(ate_plain, 2.0 * ate_clean) << dim << "D plain " << ate_plain;
+  }
+}
+
+TEST(Optimizer, OptionsLoadFromYaml) {
+  const auto node = ConfigNode::fromString(
+      "init: spanning\nmax_iterations: 7\nnum_threads: 1\nloop_loss: cauchy:2.5\nfixed: [3, 4]\n",
+      "graph.yaml");
+  const Options o = Options::load(node);
+  EXPECT_EQ(o.init, InitMethod::Spanning);
+  EXPECT_EQ(o.max_iterations, 7);
+  EXPECT_EQ(o.loop_loss.kind, LossKind::Cauchy);
+  EXPECT_EQ(o.loop_loss.scale, 2.5);
+  EXPECT_EQ(o.fixed, (std::vector<NodeId>{3, 4}));
+  EXPECT_THROW(Options::load(ConfigNode::fromString("loop_loss: bogus\n", "g.yaml")), ConfigError);
+  EXPECT_THROW(Options::load(ConfigNode::fromString("max_iteration: 3\n", "g.yaml")), ConfigError);
+  EXPECT_THROW(parseLoss("huber:-1"), ConfigError);
+  // The shipped config file loads.
+  const Options shipped = Options::load(
+      ConfigNode::loadFile(std::string(OBM_SOURCE_DIR) + "/config/graph.yaml").child("optimizer"));
+  EXPECT_EQ(shipped.init, InitMethod::Chordal);
+}
