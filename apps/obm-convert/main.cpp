@@ -2,6 +2,7 @@
 // themselves are library functions of obm::io (obm/io/convert.hpp); this is the command line.
 #include <CLI/CLI.hpp>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <optional>
 
@@ -10,6 +11,7 @@
 #include "obm/core/progress.hpp"
 #include "obm/io/convert.hpp"
 #include "obm/io/point_cloud_io.hpp"
+#include "obm/io/rawlog.hpp"
 
 namespace {
 
@@ -132,6 +134,14 @@ int main(int argc, char** argv) {
   cloud->add_option("-o,--out", c_out, "point cloud to write (.ply or .pcd)")->required();
   cloud->add_flag("--ascii", c_ascii, "write ascii instead of binary");
 
+  // ---- info
+  std::string i_in;
+  auto* info = app.add_subcommand(
+      "info",
+      "reads a rawlog through obm::io::RawlogReader (the reader the mapping pipeline uses) and "
+      "prints what it finds: observations per class and sensor, time span, points");
+  info->add_option("-i,--input", i_in, "rawlog to read")->required()->check(CLI::ExistingFile);
+
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -152,6 +162,34 @@ int main(int argc, char** argv) {
       const std::size_t n = rgbdToRawlog(r_in, r_out, r_opt, p.callback());
       p.finish();
       std::cout << "wrote " << n << " depth observations to " << r_out << "\n";
+    } else if (*info) {
+      RawlogReader reader(i_in);
+      obm::ProgressBar bar(1000, "info", "permille");
+      bar.setEnabled(!quiet);
+      RawlogObservation o;
+      std::map<std::string, std::size_t> per_class;
+      std::size_t points = 0;
+      double t0 = 0, t1 = 0;
+      bool monotonic = true;
+      while (reader.next(o)) {
+        ++per_class[o.class_name + " '" + o.sensor_label + "'"];
+        points += o.cloud.size();
+        if (reader.counts().returned == 1) t0 = o.timestamp;
+        if (o.timestamp < t1) monotonic = false;
+        t1 = o.timestamp;
+        bar.update(static_cast<std::size_t>(1000 * reader.progress()));
+      }
+      bar.finish();
+      const auto& c = reader.counts();
+      std::cout << i_in << ": " << c.objects << " objects, " << c.sensory_frames
+                << " sensory frames, " << c.actions << " actions, " << c.observations
+                << " observations\n";
+      for (const auto& [k, n] : per_class) std::cout << "  read    " << n << " x " << k << "\n";
+      for (const auto& [k, n] : c.skipped_by_class)
+        std::cout << "  skipped " << n << " x " << k << "\n";
+      std::cout.precision(17);
+      std::cout << "  time " << t0 << " .. " << t1 << " s" << (monotonic ? "" : " (not monotonic)")
+                << ", " << points << " points\n";
     } else if (*cloud) {
       const auto r = readPointCloudDetailed(c_in);
       const auto w = writePointCloud(c_out, r.cloud, !c_ascii);

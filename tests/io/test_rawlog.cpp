@@ -2,6 +2,7 @@
 #include <mrpt/io/CFileGZInputStream.h>
 #include <mrpt/maps/CSimplePointsMap.h>
 #include <mrpt/obs/CObservation3DRangeScan.h>
+#include <mrpt/poses/CPose3D.h>
 #include <mrpt/serialization/CArchive.h>
 
 #include <algorithm>
@@ -49,6 +50,18 @@ Isometry3d somePose(double yaw, double pitch, const Eigen::Vector3d& t) {
 }
 
 }  // namespace
+
+TEST(Rawlog, OpticalToMrptCameraRotation) {
+  // MRPT's default depth → intensity-camera pose is the pure rotation between its 3D-camera frame
+  // and the optical frame: CPose3D(0, 0, 0, yaw −90°, pitch 0, roll −90°).
+  const mrpt::obs::CObservation3DRangeScan scan;
+  const auto H =
+      scan.relativePoseIntensityWRTDepth.getHomogeneousMatrixVal<mrpt::math::CMatrixDouble44>();
+  EXPECT_TRUE(io::T_mrptCamera_optical().matrix().isApprox(H.asEigen(), 1e-12));
+  // Optical z (forward) is MRPT's x, optical x (right) is MRPT's −y, optical y (down) MRPT's −z.
+  const Eigen::Vector3d fwd = io::T_mrptCamera_optical() * Eigen::Vector3d::UnitZ();
+  EXPECT_TRUE(fwd.isApprox(Eigen::Vector3d::UnitX()));
+}
 
 TEST(Rawlog, VelodyneVlp16PointsGeneratedByMrpt) {
   const std::string path = kDatasets + "test_velodyne_VLP16.rawlog";
