@@ -1,5 +1,5 @@
 #pragma once
-// Internal helpers shared by the file-format readers of obm::io: whole-file loading, a line cursor
+// Internal routines shared by the file-format readers of obm::io: whole-file loading, a line cursor
 // that counts lines (for error messages), whitespace tokenising and locale-independent number
 // parsing (std::from_chars, so a user locale with ',' decimals cannot change what is read).
 #include <charconv>
