@@ -1,0 +1,58 @@
+#pragma once
+/// \file config.hpp
+/// Hyper-parameters of the OBMNet model (network widths, neighbourhood sizes, NMM and loss margins,
+/// ablation switches). Plain struct with in-class defaults (RIENet's ModelNet40 configuration, see
+/// docs/model.md); loaded from YAML in exactly one place, `ObmNetConfig::load`.
+#include <cstdint>
+#include <string>
+
+namespace obm {
+
+class ConfigNode;
+
+/// Hyper-parameters of OBMNet. Distances are in the units of the (normalised) input clouds.
+struct ObmNetConfig {
+  /// Width D of the per-point features Φ_P, Φ_Q (output of the EdgeConv extractor).
+  int emb_dims = 256;
+  /// Width of the inlier-evaluation block (conv 3→dim→2·dim).
+  int dim = 8;
+  /// Neighbours per point for the EdgeConv graph, the inlier evaluation and L_n (self included).
+  int k1 = 5;
+  /// Neighbours per point used by neighbour map matching (NMM), source and target (self included).
+  int k2 = 5;
+  /// Number of keypoints (highest inlier weights) used by L_n and L_s.
+  int n_keypoints = 256;
+  /// K: independent Gumbel-softmax draws of the overlap sampler, per cloud.
+  int n_samples = 64;
+  /// Registration iterations; each re-extracts source features on the transformed source.
+  int n_iters = 3;
+  /// γ of NMM: M^e = exp(γ − S)·M (RIENet's `nn_margin`).
+  double nn_margin = 0.7;
+  /// c of the Huber function ϑ in L_g, applied to squared distances [units²] (RIENet's
+  /// `loss_margin`).
+  double loss_margin = 0.01;
+  /// β of NMM: D_ij = (1/d_ij + β) / Σ_j (1/d_ij + β).
+  double beta = 1e-6;
+  /// Lower bound of the Gumbel-softmax temperature: τ = softplus(·) + tau_min.
+  double tau_min = 0.1;
+  /// Overlap sampling (OS): learnt π, τ, K Gumbel samples and overlap features fused before
+  /// matching.
+  bool use_overlap_sampling = true;
+  /// Bias prediction (BP): α > 0 weighting the overlapping correspondences in the SVD (needs OS).
+  bool use_bias_prediction = true;
+  /// Neighbour map matching (NMM) refinement of the matching map; off = M^r = row-softmax(−M).
+  bool use_nmm = true;
+  /// Seed of the Gumbel noise. Training draws a fresh stream from it; every forward pass in eval
+  /// mode re-seeds, so registering the same pair twice gives the same result.
+  std::uint64_t seed = 0;
+
+  /// Reads the keys of `node` (all optional; unknown keys are rejected) and validates the values.
+  /// Throws ConfigError naming the file and key.
+  static ObmNetConfig load(const ConfigNode& node);
+  /// Validates ranges and flag combinations; throws ConfigError prefixed with `where`.
+  void validate(const std::string& where = "ObmNetConfig") const;
+  /// All keys as a YAML map (readable back with `load`), stored beside trained weights.
+  std::string toYaml() const;
+};
+
+}  // namespace obm

@@ -1,0 +1,108 @@
+#pragma once
+/// \file data.hpp
+/// Registration pairs for training and evaluation (RECIPE.md "Data protocols"), free of LibTorch:
+/// the object set split, the pair protocols (clean, jitter, RIENet's outliers, partial crops),
+/// and the pair normalisation shared by the trainer and the inference API.
+#include <cstdint>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "obm/core/point_cloud.hpp"
+#include "obm/core/se3.hpp"
+
+namespace obm {
+
+class ConfigNode;
+
+namespace obmnet {
+
+/// Where an object goes. Decided by a hash of its name, so the split is the same on every
+/// machine and does not change when objects are added or removed.
+enum class Split { Train, Validation, Test };
+
+/// "train" / "val" / "test".
+std::string splitName(Split s);
+
+/// FNV-1a 64-bit hash of `name` mapped to [0, 1): < test_fraction → Test, < test + val →
+/// Validation, else Train.
+Split splitForName(const std::string& name, double val_fraction, double test_fraction);
+
+/// How a pair (source, target) is made from one cloud (RECIPE.md "Data protocols").
+struct PairProtocol {
+  /// Points drawn from the object's cloud for both source and target (the *same* points, as in
+  /// DCP/RIENet's ModelNet40 protocol).
+  int num_points = 1024;
+  /// Rotation: each Euler angle ~ U[0, max_angle_deg] with R = Rx·Ry·Rz (RIENet), or, with
+  /// `axis_angle`, a uniform axis and angle ~ U[0, max_angle_deg] (ICL-NUIM protocol).
+  double max_angle_deg = 45.0;
+  bool axis_angle = false;
+  /// Translation: each component ~ U[−max_translation, max_translation] (or, with `axis_angle`,
+  /// a uniform direction with norm ~ U[0, max_translation]) [cloud units].
+  double max_translation = 0.5;
+  /// Partial crop: each cloud independently keeps its `partial_keep` points nearest to a random
+  /// point far away (direction uniform on the sphere, distance `partial_far`). 0 = no crop.
+  int partial_keep = 0;
+  double partial_far = 500.0;
+  /// Per-point Gaussian jitter σ, clipped at ±jitter_clip, drawn independently for source and
+  /// target [cloud units]. 0 = none.
+  double jitter_sigma = 0.0;
+  double jitter_clip = 0.05;
+  /// RIENet's "noise": this many outliers appended to each cloud, uniform in [−1, 1]³ plus
+  /// N(0, 0.5²) and clipped to ±1.
+  int outliers = 0;
+
+  /// A named preset: clean, jitter, outliers, partial (768 of 1024, RIENet), partial_noise
+  /// (640 of 1024 with σ = 0.01 jitter: overlap ≈ 0.65), indoor (7Scenes fragments: 2048 → 1536),
+  /// icl (axis-angle ≤ 45°, ‖t‖ ≤ 0.5). Throws ConfigError for an unknown name.
+  static PairProtocol preset(const std::string& name);
+  /// Reads `preset` (optional, applied first) then the individual keys. Unknown keys rejected.
+  static PairProtocol load(const ConfigNode& node);
+};
+
+/// One registration problem: find T_target_source with target ≈ T_target_source · source.
+struct RegistrationPair {
+  PointCloud source;
+  PointCloud target;
+  Isometry3d T_target_source = Isometry3d::Identity();  ///< ground truth (evaluation only)
+  /// Fraction of the source points whose original point is also in the target (1 without crop).
+  double overlap = 1.0;
+  std::string name;  ///< object name (or sequence/frame ids)
+};
+
+/// Makes a pair from `cloud` (already normalised, e.g. to the unit sphere): draws
+/// `num_points` points (all if fewer), crops, transforms, jitters and adds outliers as `protocol`
+/// asks. Deterministic for a given `rng` state.
+RegistrationPair makePair(const PointCloud& cloud, const PairProtocol& protocol,
+                          std::mt19937_64& rng);
+
+/// A scan pair (KITTI (i, i+j) protocol): each scan voxelised at `voxel` [m], then `num_points`
+/// random points kept; `T_target_source` is the true relative pose (e.g. from ground truth) — it
+/// is only used to report errors, never for training.
+RegistrationPair makeScanPair(const PointCloud& source_scan, const PointCloud& target_scan,
+                              const Isometry3d& T_target_source, double voxel, int num_points,
+                              std::mt19937_64& rng);
+
+/// The normalisation applied to a pair before the network sees it, identical in training and at
+/// inference: each cloud is centred on its own centroid and both are scaled by one factor s so
+/// that the farther of the two is within radius `radius` (the geometry of the training data).
+/// Undo: T_target_source = T(c_t) · S⁻¹ · T̂ · S · T(−c_s).
+struct PairNormalization {
+  Eigen::Vector3d centroid_source = Eigen::Vector3d::Zero();
+  Eigen::Vector3d centroid_target = Eigen::Vector3d::Zero();
+  double scale = 1.0;  ///< s: normalised = s · (p − c)
+
+  /// Computes the normalisation of (source, target) for the given radius (e.g. 1 for objects).
+  static PairNormalization compute(const PointCloud& source, const PointCloud& target,
+                                   double radius);
+  /// Applies it (in place) to a source / target cloud.
+  void applySource(PointCloud& c) const;
+  void applyTarget(PointCloud& c) const;
+  /// T_target_source of the original clouds from the one estimated on the normalised clouds.
+  Isometry3d denormalize(const Isometry3d& T_normalized) const;
+  /// The inverse: the transform the network should find for a known original T.
+  Isometry3d normalize(const Isometry3d& T_target_source) const;
+};
+
+}  // namespace obmnet
+}  // namespace obm

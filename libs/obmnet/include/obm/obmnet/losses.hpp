@@ -1,0 +1,39 @@
+#pragma once
+/// \file losses.hpp
+/// The unsupervised losses of RIENet / OBMNet (RECIPE.md "Unsupervised losses"). None of them uses
+/// ground truth: they compare the transformed source with the target and with the pseudo-target.
+#include <torch/torch.h>
+
+#include "obm/obmnet/svd.hpp"
+
+namespace obm::obmnet {
+
+/// Huber function ϑ on non-negative x: 0.5·x² if x < c, else c·x − 0.5·c² (continuous, C¹ at c).
+torch::Tensor huber(const torch::Tensor& x, double c);
+
+/// L_g global alignment: ϑ of the *squared* nearest-neighbour distance, summed over the points,
+/// in both directions (transformed source → target and target → transformed source), summed over
+/// the two directions and averaged over the batch. `src_transformed` B×3×N, `tgt` B×3×M.
+torch::Tensor globalAlignmentLoss(const torch::Tensor& src_transformed, const torch::Tensor& tgt,
+                                  double c);
+
+/// Indices (B×K, int64) of the K = min(n, N) highest `weights` (B×N): the keypoints of L_n, L_s.
+torch::Tensor selectKeypoints(const torch::Tensor& weights, int64_t n);
+
+/// L_n neighbourhood agreement (RECIPE.md, RIENet): for every keypoint i, x_i = p_{κ_i} of the
+/// source and y_i = q'_{κ_i} its pseudo-correspondence; N(x_i) are the k nearest source points of
+/// x_i and N(y_i) the k nearest *target* points of y_i, both sorted by distance, and the j-th
+/// neighbours are paired: mean over keypoints, neighbours and batch of ‖R p_j + t − q_j‖.
+/// A neighbourhood that moves rigidly with its keypoint agrees; one that does not (an outlier
+/// keypoint, a wrong match) is penalised without any ground truth.
+/// `src` B×3×N (the cloud `T` applies to), `tgt` B×3×M, `pseudo_tgt` B×3×N, `keypoints` B×K.
+torch::Tensor neighborhoodLoss(const torch::Tensor& src, const torch::Tensor& tgt,
+                               const torch::Tensor& pseudo_tgt, const RigidTransforms& T,
+                               const torch::Tensor& keypoints, int64_t k);
+
+/// L_s spatial consistency: −log M^r_ij at each keypoint's row argmax j, averaged over keypoints
+/// and batch. `log_match` is log M^r (B×N×M, from log-softmax for accuracy), `keypoints` B×K.
+torch::Tensor spatialConsistencyLoss(const torch::Tensor& log_match,
+                                     const torch::Tensor& keypoints);
+
+}  // namespace obm::obmnet

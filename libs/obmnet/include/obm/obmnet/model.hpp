@@ -1,0 +1,58 @@
+#pragma once
+/// \file model.hpp
+/// OBMNet: unsupervised, overlap-aware partial-to-partial registration (AAAI 2024) on top of
+/// RIENet's iterative scheme. One forward pass runs `n_iters` iterations of: features → overlap
+/// sampling → bias prediction → matching map → neighbour map matching → pseudo-target → inlier
+/// evaluation → weighted SVD, and (optionally) the unsupervised losses L_g + L_n + L_s. See
+/// docs/model.md.
+#include <torch/torch.h>
+
+#include "obm/obmnet/config.hpp"
+#include "obm/obmnet/modules.hpp"
+
+namespace obm {
+
+/// Outputs of one forward pass. (R, t) is T_target_source: q ≈ R·p + t.
+struct ObmNetOutput {
+  torch::Tensor R;        ///< B×3×3 rotation, composed over the iterations
+  torch::Tensor t;        ///< B×3 translation
+  torch::Tensor alpha;    ///< B bias coefficient α > 0 of the last iteration (ones without BP)
+  torch::Tensor weights;  ///< B×N inlier weights w ∈ (0, 1] of the last iteration
+  /// B overlap estimate in [0, 1] of the last iteration: mean over source and target of the
+  /// perplexity of π divided by the number of points (ones without OS).
+  torch::Tensor overlap;
+  /// B×N membership of each source point in the sampled overlap region of the last iteration
+  /// (soft in training, 0/1 draws at inference; ones without BP): where α applies.
+  torch::Tensor membership;
+  /// Scalars (summed over iterations, mean over the batch); defined only when compute_loss.
+  torch::Tensor loss, loss_global, loss_neighbor, loss_spatial;
+};
+
+/// The OBMNet module. Train mode: soft Gumbel-softmax sampling and batch statistics; eval mode:
+/// hard (one-hot) sampling with noise re-seeded from `config.seed` at every call (repeatable).
+/// Inference should run under torch::NoGradGuard.
+class ObmNetImpl : public torch::nn::Module {
+ public:
+  /// Validates `config` (ConfigError on bad values) and builds the sub-modules the flags ask for.
+  explicit ObmNetImpl(const ObmNetConfig& config);
+
+  /// `src` B×3×N, `tgt` B×3×M (float32, same device as the module; N and M may differ, both
+  /// >= max(k1, k2)). Returns T_target_source and the diagnostics; the losses only when
+  /// `compute_loss`. Throws ContractError on malformed shapes.
+  ObmNetOutput forward(const torch::Tensor& src, const torch::Tensor& tgt,
+                       bool compute_loss = false);
+
+  const ObmNetConfig& config() const { return config_; }
+
+ private:
+  ObmNetConfig config_;
+  obmnet::DenseEdgeConv extractor_{nullptr};
+  obmnet::OverlapSampler sampler_{nullptr};    ///< null without OS
+  torch::nn::Conv1d overlap_fusion_{nullptr};  ///< null without OS
+  obmnet::BiasPredictor bias_{nullptr};        ///< null without BP
+  obmnet::InlierEvaluator inlier_{nullptr};
+  at::Generator train_gen_;  ///< Gumbel noise stream of train mode
+};
+TORCH_MODULE(ObmNet);
+
+}  // namespace obm

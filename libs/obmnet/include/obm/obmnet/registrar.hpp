@@ -1,0 +1,63 @@
+#pragma once
+/// \file registrar.hpp
+/// The inference API of OBMNet: one call, (source, target) → T_target_source with the bias
+/// coefficient α, the inlier weights and the overlap estimate. Loads a model file written by
+/// obm-train (saveModel); needs no training code. LibTorch stays out of this header.
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "obm/core/point_cloud.hpp"
+#include "obm/core/se3.hpp"
+
+namespace obm {
+
+/// Result of one OBMNet registration.
+struct RegistrationResult {
+  Isometry3d T_target_source = Isometry3d::Identity();  ///< p_target = T · p_source
+  double alpha = 1.0;    ///< bias coefficient α > 0 of the common structure (paper, BP module)
+  double overlap = 1.0;  ///< the network's overlap estimate in [0, 1]
+  /// Inlier weight w_i ∈ (0, 1] of each sampled source point (RIENet's inlier evaluation).
+  std::vector<float> inlier_weights;
+  /// Membership of each sampled source point in the sampled overlap region (0/1): where α applies.
+  std::vector<float> overlap_membership;
+  /// The source points the network saw (input indices), aligned with inlier_weights.
+  std::vector<std::size_t> source_indices;
+  /// The sampled source and target points (input frames, not normalised).
+  PointCloud source_sampled, target_sampled;
+  double runtime_ms = 0.0;  ///< wall time of the call (sampling + network)
+};
+
+/// Registers point clouds with a trained OBMNet model.
+class ObmNetRegistrar {
+ public:
+  struct Options {
+    std::string model_path;  ///< a model file written by obm-train
+    int num_points = 0;  ///< points sampled per cloud; 0 = the number the model was trained with
+    int threads = 2;     ///< intra-op threads
+    std::uint64_t seed = 0;  ///< seeds the point sampling (the Gumbel noise is seeded by the model)
+  };
+
+  /// Loads the model. A missing, corrupt or mismatched file throws IoError / FormatError naming it.
+  explicit ObmNetRegistrar(const Options& options);
+  ~ObmNetRegistrar();
+  ObmNetRegistrar(ObmNetRegistrar&&) noexcept;
+  ObmNetRegistrar& operator=(ObmNetRegistrar&&) noexcept;
+
+  /// Registers `source` onto `target`: samples num_points of each (all if fewer), normalises the
+  /// pair exactly as in training, runs the network, and maps the pose back to the input frames.
+  /// Throws ContractError when a cloud has fewer points than the network's neighbourhoods need.
+  RegistrationResult align(const PointCloud& source, const PointCloud& target) const;
+
+  /// Human-readable summary of the loaded model (config and description).
+  std::string describe() const;
+  /// Points per cloud used by align().
+  int numPoints() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace obm

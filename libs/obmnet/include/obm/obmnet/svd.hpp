@@ -1,0 +1,33 @@
+#pragma once
+/// \file svd.hpp
+/// Batched, differentiable weighted Procrustes (RECIPE.md pipeline step 8) and small SE(3) helpers
+/// on B×3×3 / B×3 tensors.
+#include <torch/torch.h>
+
+namespace obm::obmnet {
+
+/// A batch of rigid transforms T_a_b: p_a = R·p_b + t.
+struct RigidTransforms {
+  torch::Tensor R;  ///< B×3×3
+  torch::Tensor t;  ///< B×3
+};
+
+/// Weighted least-squares rigid transform T_tgt_src mapping `src` onto `tgt` (both B×3×N,
+/// column i of src corresponds to column i of tgt) with non-negative `weights` B×N (normalised
+/// here, so any positive scale gives the same result). Weighted centroids x̄, ȳ;
+/// H = Σ w_i (x_i − x̄)(y_i − ȳ)ᵀ = U S Vᵀ; R = V diag(1, 1, det(V Uᵀ)) Uᵀ (a proper rotation,
+/// reflections excluded); t = ȳ − R x̄. Differentiable through torch::linalg_svd. `eps` guards
+/// the weight normalisation when all weights vanish.
+RigidTransforms weightedProcrustes(const torch::Tensor& src, const torch::Tensor& tgt,
+                                   const torch::Tensor& weights, double eps = 1e-12);
+
+/// R·p + t for points B×3×N.
+torch::Tensor transformPoints(const RigidTransforms& T, const torch::Tensor& points);
+
+/// Composition T_a_c = T_a_b ∘ T_b_c: R = R_ab R_bc, t = R_ab t_bc + t_ab.
+RigidTransforms compose(const RigidTransforms& T_a_b, const RigidTransforms& T_b_c);
+
+/// Identity transforms for a batch of `batch` on the given tensor options.
+RigidTransforms identityTransforms(int64_t batch, const torch::TensorOptions& options);
+
+}  // namespace obm::obmnet

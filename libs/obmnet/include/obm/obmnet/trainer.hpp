@@ -1,0 +1,95 @@
+#pragma once
+/// \file trainer.hpp
+/// Unsupervised training of OBMNet (RECIPE.md: Adam, step schedule, losses L_g + L_n + L_s).
+/// Ground truth is never used to train; it only scores the validation split, on which the best
+/// checkpoint is chosen (never on the test split). LibTorch stays out of this header.
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "obm/core/point_cloud.hpp"
+#include "obm/obmnet/config.hpp"
+#include "obm/obmnet/data.hpp"
+
+namespace obm {
+
+class ConfigNode;
+
+namespace obmnet {
+
+/// Everything a training run needs besides the data. Loaded from the `train:` and `model:` maps of
+/// a YAML file in `TrainConfig::load`; see config/obmnet/*.yaml.
+struct TrainConfig {
+  ObmNetConfig model;         ///< network hyper-parameters (`model:` map)
+  PairProtocol protocol;      ///< training pairs (`train.pairs:` map)
+  PairProtocol val_protocol;  ///< validation pairs (`train.val_pairs:`; default = protocol)
+  int batch_size = 16;
+  int epochs = 50;
+  int pairs_per_epoch = 1600;  ///< pairs drawn per epoch (objects drawn with replacement)
+  int val_pairs = 200;         ///< fixed validation pairs (same every epoch)
+  double lr = 1e-3;            ///< Adam learning rate
+  double weight_decay = 1e-4;
+  std::vector<int> lr_steps{25};  ///< epochs (1-based, at their start) where lr ×= lr_gamma
+  double lr_gamma = 0.7;
+  double normalize_radius = 1.0;  ///< pair normalisation radius (PairNormalization)
+  double recall_deg = 1.0;        ///< validation recall: MIE(R) below this ...
+  double recall_trans = 0.05;     ///< ... and MIE(t) below this [normalised units]
+  double max_grad_norm = 10.0;    ///< gradient clipping (0 = off)
+  int threads = 2;                ///< intra-op threads (torch::set_num_threads)
+  std::uint64_t seed = 1;         ///< seeds weights, pair generation and Gumbel noise
+  double max_hours = 0.0;         ///< stop (with a checkpoint) after this wall time; 0 = no limit
+
+  static TrainConfig load(const ConfigNode& root);
+};
+
+/// One row of the training log (also written to train_log.csv).
+struct EpochStats {
+  int epoch = 0;
+  double lr = 0.0;
+  double loss = 0.0, loss_global = 0.0, loss_neighbor = 0.0, loss_spatial = 0.0;
+  double val_loss = 0.0, val_mie_r = 0.0, val_mie_t = 0.0, val_recall = 0.0, val_mean_alpha = 0.0;
+  double pairs_per_s = 0.0;
+  double wall_s = 0.0;  ///< cumulated training wall time at the end of this epoch
+  bool best = false;
+};
+
+/// Validation scores of a model on a list of pairs.
+struct ValidationScores {
+  double loss = 0.0, mie_r = 0.0, mie_t = 0.0, recall = 0.0, mean_alpha = 0.0;
+};
+
+/// Trains a model into `out_dir`:
+///   checkpoint.pt   model + optimiser + epoch (resume point, written after every epoch)
+///   best.pt         best model on the validation split (a model file for loadModel)
+///   train_log.csv   one row per epoch
+///   config.yaml     the configuration actually used
+class Trainer {
+ public:
+  Trainer(TrainConfig config, std::vector<PointCloud> train_clouds,
+          std::vector<PointCloud> val_clouds, std::string out_dir);
+  ~Trainer();
+  Trainer(const Trainer&) = delete;
+  Trainer& operator=(const Trainer&) = delete;
+
+  /// Runs until `config.epochs` (continuing from out_dir/checkpoint.pt when `resume`), or until
+  /// `stop()` returns true (checked between batches; the checkpoint then holds the last whole
+  /// epoch). Returns the per-epoch statistics of this run. `on_epoch` is called after each epoch.
+  std::vector<EpochStats> run(bool resume, const std::function<bool()>& stop = {},
+                              const std::function<void(const EpochStats&)>& on_epoch = {});
+
+  /// Scores the current model on the validation pairs.
+  ValidationScores validate();
+
+  /// Pairs per second of training (forward + backward + step) measured on `n_batches` batches
+  /// of the training protocol, without touching the checkpoint. For planning runs.
+  double measureThroughput(int n_batches);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace obmnet
+}  // namespace obm

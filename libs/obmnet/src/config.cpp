@@ -1,0 +1,77 @@
+#include "obm/obmnet/config.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include "obm/config/config_node.hpp"
+#include "obm/core/errors.hpp"
+
+namespace obm {
+
+ObmNetConfig ObmNetConfig::load(const ConfigNode& node) {
+  ObmNetConfig c;
+  node.checkKeys({"emb_dims", "dim", "k1", "k2", "n_keypoints", "n_samples", "n_iters", "nn_margin",
+                  "loss_margin", "beta", "tau_min", "use_overlap_sampling", "use_bias_prediction",
+                  "use_nmm", "seed"});
+  node.get("emb_dims", c.emb_dims);
+  node.get("dim", c.dim);
+  node.get("k1", c.k1);
+  node.get("k2", c.k2);
+  node.get("n_keypoints", c.n_keypoints);
+  node.get("n_samples", c.n_samples);
+  node.get("n_iters", c.n_iters);
+  node.get("nn_margin", c.nn_margin);
+  node.get("loss_margin", c.loss_margin);
+  node.get("beta", c.beta);
+  node.get("tau_min", c.tau_min);
+  node.get("use_overlap_sampling", c.use_overlap_sampling);
+  node.get("use_bias_prediction", c.use_bias_prediction);
+  node.get("use_nmm", c.use_nmm);
+  node.get("seed", c.seed);
+  c.validate(node.where());
+  return c;
+}
+
+void ObmNetConfig::validate(const std::string& where) const {
+  auto fail = [&](const std::string& key, const std::string& what) {
+    throw ConfigError(where + (where.empty() || where.back() == ' ' ? "" : ": ") + key + ": " +
+                      what);
+  };
+  if (emb_dims < 1) fail("emb_dims", "must be >= 1");
+  if (dim < 1) fail("dim", "must be >= 1");
+  if (k1 < 2) fail("k1", "must be >= 2 (the point itself is one of its neighbours)");
+  if (k2 < 1) fail("k2", "must be >= 1");
+  if (n_keypoints < 1) fail("n_keypoints", "must be >= 1");
+  if (n_samples < 1) fail("n_samples", "must be >= 1");
+  if (n_iters < 1) fail("n_iters", "must be >= 1");
+  if (!(loss_margin > 0.0)) fail("loss_margin", "must be > 0");
+  if (!(beta >= 0.0)) fail("beta", "must be >= 0");
+  if (!(tau_min > 0.0)) fail("tau_min", "must be > 0");
+  if (use_bias_prediction && !use_overlap_sampling)
+    fail("use_bias_prediction",
+         "needs use_overlap_sampling: α weights the sampled overlap region, which OS provides");
+}
+
+std::string ObmNetConfig::toYaml() const {
+  YAML::Emitter out;
+  out.SetDoublePrecision(17);
+  out << YAML::BeginMap;
+  out << YAML::Key << "emb_dims" << YAML::Value << emb_dims;
+  out << YAML::Key << "dim" << YAML::Value << dim;
+  out << YAML::Key << "k1" << YAML::Value << k1;
+  out << YAML::Key << "k2" << YAML::Value << k2;
+  out << YAML::Key << "n_keypoints" << YAML::Value << n_keypoints;
+  out << YAML::Key << "n_samples" << YAML::Value << n_samples;
+  out << YAML::Key << "n_iters" << YAML::Value << n_iters;
+  out << YAML::Key << "nn_margin" << YAML::Value << nn_margin;
+  out << YAML::Key << "loss_margin" << YAML::Value << loss_margin;
+  out << YAML::Key << "beta" << YAML::Value << beta;
+  out << YAML::Key << "tau_min" << YAML::Value << tau_min;
+  out << YAML::Key << "use_overlap_sampling" << YAML::Value << use_overlap_sampling;
+  out << YAML::Key << "use_bias_prediction" << YAML::Value << use_bias_prediction;
+  out << YAML::Key << "use_nmm" << YAML::Value << use_nmm;
+  out << YAML::Key << "seed" << YAML::Value << seed;
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+}  // namespace obm

@@ -1,0 +1,249 @@
+#include "obm/obmnet/data.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "obm/config/config_node.hpp"
+#include "obm/core/cloud_ops.hpp"
+#include "obm/core/errors.hpp"
+
+namespace obm::obmnet {
+
+std::string splitName(Split s) {
+  switch (s) {
+    case Split::Train:
+      return "train";
+    case Split::Validation:
+      return "val";
+    case Split::Test:
+      return "test";
+  }
+  return "?";
+}
+
+Split splitForName(const std::string& name, double val_fraction, double test_fraction) {
+  std::uint64_t h = 1469598103934665603ull;  // FNV-1a offset basis
+  for (unsigned char c : name) {
+    h ^= c;
+    h *= 1099511628211ull;  // FNV prime
+  }
+  // FNV-1a alone leaves the high bits of similar names ("obj_1", "obj_2") correlated: a
+  // splitmix64 finaliser mixes every input bit into them.
+  h ^= h >> 30;
+  h *= 0xbf58476d1ce4e5b9ull;
+  h ^= h >> 27;
+  h *= 0x94d049bb133111ebull;
+  h ^= h >> 31;
+  // Top 53 bits → a double in [0, 1).
+  const double u = static_cast<double>(h >> 11) * (1.0 / 9007199254740992.0);
+  if (u < test_fraction) return Split::Test;
+  if (u < test_fraction + val_fraction) return Split::Validation;
+  return Split::Train;
+}
+
+PairProtocol PairProtocol::preset(const std::string& name) {
+  PairProtocol p;
+  if (name == "clean") return p;
+  if (name == "jitter") {
+    p.jitter_sigma = 0.01;
+    return p;
+  }
+  if (name == "outliers") {
+    p.outliers = 200;
+    return p;
+  }
+  if (name == "partial") {
+    p.partial_keep = 768;
+    return p;
+  }
+  if (name == "partial_noise") {
+    p.partial_keep = 640;
+    p.jitter_sigma = 0.01;
+    return p;
+  }
+  if (name == "indoor") {
+    p.num_points = 2048;
+    p.partial_keep = 1536;
+    return p;
+  }
+  if (name == "icl") {
+    p.num_points = 2048;
+    p.partial_keep = 1536;
+    p.axis_angle = true;
+    return p;
+  }
+  throw ConfigError("unknown pair protocol '" + name +
+                    "' (known: clean, jitter, outliers, partial, partial_noise, indoor, icl)");
+}
+
+PairProtocol PairProtocol::load(const ConfigNode& node) {
+  node.checkKeys({"preset", "num_points", "max_angle_deg", "axis_angle", "max_translation",
+                  "partial_keep", "partial_far", "jitter_sigma", "jitter_clip", "outliers"});
+  PairProtocol p;
+  if (node.has("preset")) {
+    try {
+      p = preset(node.required<std::string>("preset"));
+    } catch (const ConfigError& e) {
+      throw ConfigError(node.where("preset") + ": " + e.what());
+    }
+  }
+  node.get("num_points", p.num_points);
+  node.get("max_angle_deg", p.max_angle_deg);
+  node.get("axis_angle", p.axis_angle);
+  node.get("max_translation", p.max_translation);
+  node.get("partial_keep", p.partial_keep);
+  node.get("partial_far", p.partial_far);
+  node.get("jitter_sigma", p.jitter_sigma);
+  node.get("jitter_clip", p.jitter_clip);
+  node.get("outliers", p.outliers);
+  if (p.num_points < 8) throw ConfigError(node.where("num_points") + ": must be >= 8");
+  if (p.partial_keep < 0 || p.partial_keep > p.num_points)
+    throw ConfigError(node.where("partial_keep") + ": must be in [0, num_points]");
+  if (p.jitter_sigma < 0 || p.outliers < 0 || p.max_angle_deg < 0 || p.max_translation < 0)
+    throw ConfigError(node.where() +
+                      ": jitter_sigma, outliers, max_angle_deg, max_translation must be >= 0");
+  return p;
+}
+
+namespace {
+
+/// Indices of the `keep` points nearest to a random far point (PRNet/RIENet partial crop).
+std::vector<std::size_t> cropNearFarPoint(const PointCloud& c, int keep, double far,
+                                          std::mt19937_64& rng) {
+  std::normal_distribution<double> G(0.0, 1.0);
+  Eigen::Vector3d dir(G(rng), G(rng), G(rng));
+  if (dir.norm() < 1e-12) dir = Eigen::Vector3d::UnitX();
+  const Eigen::Vector3f anchor = (far * dir.normalized()).cast<float>();
+  std::vector<std::size_t> idx(c.size());
+  std::iota(idx.begin(), idx.end(), std::size_t{0});
+  const auto k = static_cast<std::size_t>(keep);
+  std::vector<float> d(c.size());
+  for (std::size_t i = 0; i < c.size(); ++i) d[i] = (c.points[i] - anchor).squaredNorm();
+  std::partial_sort(idx.begin(), idx.begin() + static_cast<std::ptrdiff_t>(std::min(k, idx.size())),
+                    idx.end(), [&](std::size_t a, std::size_t b) { return d[a] < d[b]; });
+  idx.resize(std::min(k, idx.size()));
+  std::sort(idx.begin(), idx.end());
+  return idx;
+}
+
+void jitter(PointCloud& c, double sigma, double clip, std::mt19937_64& rng) {
+  std::normal_distribution<double> G(0.0, sigma);
+  for (auto& p : c.points)
+    for (int a = 0; a < 3; ++a) p[a] += static_cast<float>(std::clamp(G(rng), -clip, clip));
+}
+
+void addOutliers(PointCloud& c, int n, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  std::normal_distribution<double> G(0.0, 0.5);
+  for (int i = 0; i < n; ++i) {
+    Eigen::Vector3f p;
+    for (int a = 0; a < 3; ++a) p[a] = static_cast<float>(std::clamp(U(rng) + G(rng), -1.0, 1.0));
+    c.points.push_back(p);
+  }
+  c.intensity.clear();
+  c.colors.clear();
+}
+
+}  // namespace
+
+RegistrationPair makePair(const PointCloud& cloud, const PairProtocol& protocol,
+                          std::mt19937_64& rng) {
+  OBM_ASSERT(!cloud.empty(), "makePair: empty cloud");
+  RegistrationPair pair;
+  PointCloud base = randomSubset(cloud, static_cast<std::size_t>(protocol.num_points), rng);
+  base.intensity.clear();
+  base.colors.clear();
+  // The pose first, so that the same seed gives the same pose whatever the crop does.
+  pair.T_target_source =
+      protocol.axis_angle
+          ? randomAxisAngleTransform(rng, protocol.max_angle_deg, protocol.max_translation)
+          : randomRienetTransform(rng, protocol.max_angle_deg, protocol.max_translation);
+
+  PointCloud src = base, tgt = base;
+  if (protocol.partial_keep > 0 && protocol.partial_keep < static_cast<int>(base.size())) {
+    const auto is = cropNearFarPoint(base, protocol.partial_keep, protocol.partial_far, rng);
+    const auto it = cropNearFarPoint(base, protocol.partial_keep, protocol.partial_far, rng);
+    std::vector<std::size_t> common;
+    std::set_intersection(is.begin(), is.end(), it.begin(), it.end(), std::back_inserter(common));
+    pair.overlap = static_cast<double>(common.size()) / static_cast<double>(is.size());
+    // Shuffle the order so that index i of source and target are not correspondences.
+    src = base.select(is);
+    tgt = base.select(it);
+  }
+  src = randomSubset(src, src.size(), rng);
+  tgt = randomSubset(tgt, tgt.size(), rng);
+  tgt.transform(pair.T_target_source);
+  if (protocol.jitter_sigma > 0.0) {
+    jitter(src, protocol.jitter_sigma, protocol.jitter_clip, rng);
+    jitter(tgt, protocol.jitter_sigma, protocol.jitter_clip, rng);
+  }
+  if (protocol.outliers > 0) {
+    addOutliers(src, protocol.outliers, rng);
+    addOutliers(tgt, protocol.outliers, rng);
+  }
+  src.frame_id = "source";
+  tgt.frame_id = "target";
+  pair.source = std::move(src);
+  pair.target = std::move(tgt);
+  return pair;
+}
+
+RegistrationPair makeScanPair(const PointCloud& source_scan, const PointCloud& target_scan,
+                              const Isometry3d& T_target_source, double voxel, int num_points,
+                              std::mt19937_64& rng) {
+  RegistrationPair pair;
+  pair.source =
+      randomSubset(voxelDownsample(source_scan, voxel), static_cast<std::size_t>(num_points), rng);
+  pair.target =
+      randomSubset(voxelDownsample(target_scan, voxel), static_cast<std::size_t>(num_points), rng);
+  pair.T_target_source = T_target_source;
+  pair.overlap = -1.0;  // unknown for real scans
+  return pair;
+}
+
+PairNormalization PairNormalization::compute(const PointCloud& source, const PointCloud& target,
+                                             double radius) {
+  OBM_ASSERT(!source.empty() && !target.empty(), "PairNormalization: empty cloud");
+  OBM_ASSERT(radius > 0.0, "PairNormalization: radius must be > 0");
+  PairNormalization n;
+  n.centroid_source = source.centroid().cast<double>();
+  n.centroid_target = target.centroid().cast<double>();
+  double r = 0.0;
+  for (const auto& p : source.points)
+    r = std::max(r, (p.cast<double>() - n.centroid_source).norm());
+  for (const auto& p : target.points)
+    r = std::max(r, (p.cast<double>() - n.centroid_target).norm());
+  n.scale = r > 0.0 ? radius / r : 1.0;
+  return n;
+}
+
+void PairNormalization::applySource(PointCloud& c) const {
+  const Eigen::Vector3f cs = centroid_source.cast<float>();
+  const auto s = static_cast<float>(scale);
+  for (auto& p : c.points) p = s * (p - cs);
+}
+
+void PairNormalization::applyTarget(PointCloud& c) const {
+  const Eigen::Vector3f ct = centroid_target.cast<float>();
+  const auto s = static_cast<float>(scale);
+  for (auto& p : c.points) p = s * (p - ct);
+}
+
+Isometry3d PairNormalization::denormalize(const Isometry3d& T_hat) const {
+  // q = c_t + T̂(s(p − c_s))/s  ⇒  R = R̂, t = c_t + t̂/s − R̂ c_s.
+  Isometry3d T = Isometry3d::Identity();
+  T.linear() = T_hat.linear();
+  T.translation() =
+      centroid_target + T_hat.translation() / scale - T_hat.linear() * centroid_source;
+  return T;
+}
+
+Isometry3d PairNormalization::normalize(const Isometry3d& T) const {
+  Isometry3d T_hat = Isometry3d::Identity();
+  T_hat.linear() = T.linear();
+  T_hat.translation() = scale * (T.translation() - centroid_target + T.linear() * centroid_source);
+  return T_hat;
+}
+
+}  // namespace obm::obmnet

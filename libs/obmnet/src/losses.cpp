@@ -1,0 +1,62 @@
+#include "obm/obmnet/losses.hpp"
+
+#include <algorithm>
+
+#include "obm/core/errors.hpp"
+#include "obm/obmnet/modules.hpp"
+
+namespace obm::obmnet {
+
+torch::Tensor huber(const torch::Tensor& x, double c) {
+  return torch::where(x < c, 0.5 * x * x, c * x - 0.5 * c * c);
+}
+
+torch::Tensor globalAlignmentLoss(const torch::Tensor& src_transformed, const torch::Tensor& tgt,
+                                  double c) {
+  const auto d2 = pairwiseSquaredDistance(src_transformed, tgt);  // B×N×M squared distances
+  // Summed over the points (not averaged): ϑ's slope is at most c, so a mean over ~10³ points
+  // would leave L_g orders of magnitude below L_n and L_s in the unweighted total.
+  const auto src_to_tgt = huber(d2.amin(2), c).sum(1);  // B
+  const auto tgt_to_src = huber(d2.amin(1), c).sum(1);  // B
+  return (src_to_tgt + tgt_to_src).mean();
+}
+
+torch::Tensor selectKeypoints(const torch::Tensor& weights, int64_t n) {
+  OBM_ASSERT(weights.dim() == 2 && n >= 1, "selectKeypoints expects weights B×N and n >= 1");
+  const int64_t k = std::min<int64_t>(n, weights.size(1));
+  return std::get<1>(weights.detach().topk(k, /*dim=*/1, /*largest=*/true, /*sorted=*/true));
+}
+
+torch::Tensor neighborhoodLoss(const torch::Tensor& src, const torch::Tensor& tgt,
+                               const torch::Tensor& pseudo_tgt, const RigidTransforms& T,
+                               const torch::Tensor& keypoints, int64_t k) {
+  OBM_ASSERT(src.sizes() == pseudo_tgt.sizes(), "neighborhoodLoss: src and pseudo-target differ");
+  OBM_ASSERT(keypoints.dim() == 2 && keypoints.size(0) == src.size(0),
+             "neighborhoodLoss: keypoints must be B×K");
+  const int64_t B = src.size(0), K = keypoints.size(1);
+  const int64_t k_src = std::min<int64_t>(k, src.size(2)),
+                k_tgt = std::min<int64_t>(k, tgt.size(2));
+  const int64_t kk = std::min(k_src, k_tgt);
+  const auto kp3 = keypoints.unsqueeze(1).expand({B, 3, K});
+  const auto x = src.gather(2, kp3);         // B×3×K keypoints in the source
+  const auto y = pseudo_tgt.gather(2, kp3);  // B×3×K their pseudo-correspondences
+  // Neighbour indices (nearest first): of x_i among the source, of y_i among the target.
+  const auto nx = knnIndices(x.detach(), src.detach(), kk);  // B×K×kk
+  const auto ny = knnIndices(y.detach(), tgt.detach(), kk);
+  const auto P = gatherNeighbors(src, nx).reshape({B, 3, K * kk});
+  const auto Q = gatherNeighbors(tgt, ny).reshape({B, 3, K * kk});
+  const auto r = transformPoints(T, P) - Q;
+  // A tiny offset keeps the gradient of the norm finite at an exact match.
+  return (r.pow(2).sum(1) + 1e-12).sqrt().mean();
+}
+
+torch::Tensor spatialConsistencyLoss(const torch::Tensor& log_match,
+                                     const torch::Tensor& keypoints) {
+  OBM_ASSERT(log_match.dim() == 3 && keypoints.dim() == 2 && keypoints.size(0) == log_match.size(0),
+             "spatialConsistencyLoss expects log M^r B×N×M and keypoints B×K");
+  const int64_t B = log_match.size(0), K = keypoints.size(1), M = log_match.size(2);
+  const auto rows = log_match.gather(1, keypoints.unsqueeze(2).expand({B, K, M}));  // B×K×M
+  return -rows.amax(2).mean();
+}
+
+}  // namespace obm::obmnet

@@ -1,0 +1,147 @@
+#include "obm/obmnet/model.hpp"
+
+#include "obm/core/errors.hpp"
+#include "obm/obmnet/losses.hpp"
+#include "obm/obmnet/nmm.hpp"
+#include "obm/obmnet/svd.hpp"
+
+namespace obm {
+
+namespace nn = torch::nn;
+using obmnet::RigidTransforms;
+
+ObmNetImpl::ObmNetImpl(const ObmNetConfig& config) : config_(config) {
+  config_.validate();
+  extractor_ = register_module("extractor", obmnet::DenseEdgeConv(config_.k1, config_.emb_dims));
+  if (config_.use_overlap_sampling) {
+    sampler_ = register_module(
+        "sampler", obmnet::OverlapSampler(config_.emb_dims, config_.n_samples, config_.tau_min));
+    // Fusion of a point's feature with the overlap representations of both clouds (own, other):
+    // Φ' = Φ + conv([Φ; T_self; T_other]). The residual form keeps Φ itself as the matching
+    // feature at initialisation and lets training add the overlap context.
+    overlap_fusion_ = register_module(
+        "overlap_fusion",
+        nn::Conv1d(nn::Conv1dOptions(3 * config_.emb_dims, config_.emb_dims, 1).bias(false)));
+  }
+  if (config_.use_bias_prediction) bias_ = register_module("bias", obmnet::BiasPredictor());
+  inlier_ = register_module("inlier", obmnet::InlierEvaluator(config_.dim));
+  train_gen_ = at::make_generator<at::CPUGeneratorImpl>(config_.seed);
+}
+
+namespace {
+
+/// Φ' of the matching map: the features fused with the overlap representations (step 4).
+torch::Tensor fuse(torch::nn::Conv1d& fusion, const torch::Tensor& phi,
+                   const torch::Tensor& summary_self, const torch::Tensor& summary_other) {
+  const int64_t B = phi.size(0), D = phi.size(1), N = phi.size(2);
+  const auto ctx = torch::cat({summary_self, summary_other}, 1).unsqueeze(2).expand({B, 2 * D, N});
+  return phi + fusion->forward(torch::cat({phi, ctx}, 1));
+}
+
+}  // namespace
+
+ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& tgt,
+                                 bool compute_loss) {
+  OBM_ASSERT(src.dim() == 3 && src.size(1) == 3 && tgt.dim() == 3 && tgt.size(1) == 3 &&
+                 src.size(0) == tgt.size(0),
+             "ObmNet expects src B×3×N and tgt B×3×M");
+  const int64_t kmin = std::max(config_.k1, config_.k2);
+  OBM_ASSERT(src.size(2) >= kmin && tgt.size(2) >= kmin,
+             "ObmNet: each cloud needs at least max(k1, k2) points");
+  const int64_t B = src.size(0);
+  const auto opts = src.options();
+
+  // Eval mode re-seeds the Gumbel noise so the same pair always gives the same result.
+  at::Generator eval_gen;
+  if (!is_training()) eval_gen = at::make_generator<at::CPUGeneratorImpl>(config_.seed);
+  at::Generator& gen = is_training() ? train_gen_ : eval_gen;
+
+  ObmNetOutput out;
+  RigidTransforms T = obmnet::identityTransforms(B, opts);
+  const obmnet::NmmParams nmm_params{config_.nn_margin, config_.beta};
+
+  // Target-side quantities do not change over the iterations: computed once.
+  const auto tgt_knn1 = obmnet::knnIndices(tgt, tgt, config_.k1);
+  const auto tgt_knn2 = obmnet::knnIndices(tgt, tgt, config_.k2);
+  const auto phi_q = extractor_->forward(tgt, tgt_knn1);
+
+  torch::Tensor loss_g = torch::zeros({}, opts), loss_n = torch::zeros({}, opts),
+                loss_s = torch::zeros({}, opts);
+
+  for (int it = 0; it < config_.n_iters; ++it) {
+    // The source as moved by the iterations so far. Each iteration learns on its own input:
+    // the gradient does not flow back through the earlier iterations' poses (as in RIENet).
+    const auto src_cur = obmnet::transformPoints(T, src).detach();
+    // Step 1: features (kNN recomputed on the transformed source).
+    const auto src_knn1 = obmnet::knnIndices(src_cur, src_cur, config_.k1);
+    const auto phi_p = extractor_->forward(src_cur, src_knn1);
+
+    // Steps 2–3: overlap sampling and bias prediction.
+    auto feat_p = phi_p, feat_q = phi_q;
+    torch::Tensor membership = torch::ones({B, src.size(2)}, opts);
+    torch::Tensor alpha = torch::ones({B}, opts);
+    torch::Tensor overlap = torch::ones({B}, opts);
+    if (sampler_) {
+      const auto os_p = sampler_->forward(phi_p, phi_q, src_cur, gen);
+      const auto os_q = sampler_->forward(phi_q, phi_p, tgt, gen);
+      feat_p = fuse(overlap_fusion_, phi_p, os_p.summary, os_q.summary);
+      feat_q = fuse(overlap_fusion_, phi_q, os_q.summary, os_p.summary);
+      overlap = 0.5 * (os_p.overlap + os_q.overlap);
+      if (bias_) {
+        alpha = bias_->forward(os_p.points, os_q.points);
+        // Which source points the sampler drew: soft membership in training; at inference the
+        // K hard draws themselves (a point drawn at least once belongs to the overlap region).
+        membership = is_training() ? os_p.membership : os_p.selection.amax(1);  // B×N, 0/1
+      }
+    }
+
+    // Step 4: matching map M_ij = ‖Φ'_pi − Φ'_qj‖₂.
+    const auto M = (obmnet::pairwiseSquaredDistance(feat_p, feat_q) + 1e-12).sqrt();
+    // Step 5: neighbour map matching → M^r (log kept for L_s).
+    torch::Tensor log_match;
+    if (config_.use_nmm) {
+      const auto src_knn2 = obmnet::knnIndices(src_cur, src_cur, config_.k2);
+      log_match =
+          torch::log_softmax(-obmnet::nmmEnhancedCost(M, src_knn2, tgt_knn2, nmm_params), 2);
+    } else {
+      log_match = torch::log_softmax(-M, 2);
+    }
+    const auto match = log_match.exp();  // B×N×M, rows sum to 1
+    // Step 6: pseudo-target Q' = M^r·Q (one soft correspondence per source point).
+    const auto pseudo = torch::bmm(tgt, match.transpose(1, 2));  // B×3×N
+    // Step 7: inlier evaluation.
+    const auto w = inlier_->forward(src_cur, pseudo, src_knn1);  // B×N in (0, 1]
+    // Step 8: weighted SVD with w·α. α is the bias of the common structure: it multiplies the
+    // weights of the correspondences in the sampled overlap region (membership m_i), so that
+    // ω_i = w_i·(1 + (α − 1)·m_i) — ω_i = α·w_i inside the overlap, w_i outside. (A single α on
+    // every weight would cancel in the normalised weighted centroids.)
+    const auto omega = w * (1.0 + (alpha.unsqueeze(1) - 1.0) * membership);
+    const auto T_step = obmnet::weightedProcrustes(src_cur, pseudo, omega);
+    T = obmnet::compose(T_step, T);
+
+    if (compute_loss) {
+      const auto src_new = obmnet::transformPoints(T_step, src_cur);
+      loss_g = loss_g + obmnet::globalAlignmentLoss(src_new, tgt, config_.loss_margin);
+      const auto kp = obmnet::selectKeypoints(w, config_.n_keypoints);
+      loss_n = loss_n + obmnet::neighborhoodLoss(src_cur, tgt, pseudo, T_step, kp, config_.k1);
+      loss_s = loss_s + obmnet::spatialConsistencyLoss(log_match, kp);
+    }
+    if (it + 1 == config_.n_iters) {
+      out.alpha = alpha;
+      out.weights = w;
+      out.overlap = overlap;
+      out.membership = membership;
+    }
+  }
+  out.R = T.R;
+  out.t = T.t;
+  if (compute_loss) {
+    out.loss_global = loss_g;
+    out.loss_neighbor = loss_n;
+    out.loss_spatial = loss_s;
+    out.loss = loss_g + loss_n + loss_s;  // unweighted sum, as in RIENet
+  }
+  return out;
+}
+
+}  // namespace obm

@@ -1,0 +1,77 @@
+#include "obm/obmnet/model_io.hpp"
+
+#include <filesystem>
+
+#include "obm/config/config_node.hpp"
+#include "obm/core/atomic_file.hpp"
+#include "obm/core/errors.hpp"
+
+namespace obm::obmnet {
+
+namespace {
+constexpr const char* kFormatTag = "obmslam-obmnet-v1";
+}
+
+void saveModel(const std::string& path, ObmNet& model, const ModelMeta& meta) {
+  torch::serialize::OutputArchive archive;
+  archive.write("format", c10::IValue(std::string(kFormatTag)));
+  archive.write("config_yaml", c10::IValue(model->config().toYaml()));
+  archive.write("normalize_radius", c10::IValue(meta.normalize_radius));
+  archive.write("num_points", c10::IValue(static_cast<int64_t>(meta.num_points)));
+  archive.write("description", c10::IValue(meta.description));
+  model->save(archive);
+  const std::string tmp = temporaryPathFor(path);
+  try {
+    archive.save_to(tmp);
+  } catch (const c10::Error& e) {
+    std::filesystem::remove(tmp);
+    throw IoError(path + ": cannot write the model (" + e.what_without_backtrace() + ")");
+  }
+  commitTemporaryFile(tmp, path);
+}
+
+ObmNet loadModel(const std::string& path, ModelMeta* meta) {
+  if (!std::filesystem::is_regular_file(path)) throw IoError(path + ": model file not found");
+  torch::serialize::InputArchive archive;
+  try {
+    archive.load_from(path);
+  } catch (const c10::Error& e) {
+    throw FormatError(
+        path, 0,
+        std::string("not a readable LibTorch archive (") + e.what_without_backtrace() + ")");
+  }
+  auto readString = [&](const char* key) {
+    c10::IValue v;
+    if (!archive.try_read(key, v) || !v.isString())
+      throw FormatError(path, 0,
+                        std::string("not an obmslam model: entry '") + key + "' is missing");
+    return v.toStringRef();
+  };
+  const std::string tag = readString("format");
+  if (tag != kFormatTag)
+    throw FormatError(path, 0, "model format '" + tag + "' is not '" + kFormatTag + "'");
+  ObmNetConfig cfg;
+  try {
+    cfg = ObmNetConfig::load(ConfigNode::fromString(readString("config_yaml"), path + " (config)"));
+  } catch (const ConfigError& e) {
+    throw FormatError(path, 0, std::string("bad embedded configuration: ") + e.what());
+  }
+  ModelMeta m;
+  c10::IValue v;
+  if (archive.try_read("normalize_radius", v) && v.isDouble()) m.normalize_radius = v.toDouble();
+  if (archive.try_read("num_points", v) && v.isInt()) m.num_points = static_cast<int>(v.toInt());
+  if (archive.try_read("description", v) && v.isString()) m.description = v.toStringRef();
+  ObmNet model(cfg);
+  try {
+    model->load(archive);
+  } catch (const c10::Error& e) {
+    throw FormatError(path, 0,
+                      std::string("weights do not match the embedded configuration (") +
+                          e.what_without_backtrace() + ")");
+  }
+  model->eval();
+  if (meta) *meta = m;
+  return model;
+}
+
+}  // namespace obm::obmnet

@@ -1,0 +1,226 @@
+#include "obm/obmnet/modules.hpp"
+
+#include <cmath>
+
+#include "obm/core/errors.hpp"
+
+namespace obm::obmnet {
+
+namespace nn = torch::nn;
+
+torch::Tensor pairwiseSquaredDistance(const torch::Tensor& a, const torch::Tensor& b) {
+  OBM_ASSERT(a.dim() == 3 && b.dim() == 3 && a.size(0) == b.size(0) && a.size(1) == b.size(1),
+             "pairwiseSquaredDistance expects B×C×N and B×C×M");
+  const auto aa = a.pow(2).sum(1);                   // B×N
+  const auto bb = b.pow(2).sum(1);                   // B×M
+  const auto ab = torch::bmm(a.transpose(1, 2), b);  // B×N×M
+  return (aa.unsqueeze(2) + bb.unsqueeze(1) - 2.0 * ab).clamp_min(0.0);
+}
+
+torch::Tensor knnIndices(const torch::Tensor& query, const torch::Tensor& ref, int64_t k) {
+  OBM_ASSERT(k >= 1 && k <= ref.size(2),
+             "knnIndices: k must be in [1, number of reference points]");
+  torch::NoGradGuard no_grad;  // indices only
+  const auto d = pairwiseSquaredDistance(query, ref);
+  return std::get<1>(d.topk(k, /*dim=*/2, /*largest=*/false, /*sorted=*/true));
+}
+
+torch::Tensor gatherNeighbors(const torch::Tensor& x, const torch::Tensor& idx) {
+  OBM_ASSERT(x.dim() == 3 && idx.dim() == 3 && x.size(0) == idx.size(0),
+             "gatherNeighbors expects x B×C×M and idx B×N×k");
+  const int64_t B = x.size(0), C = x.size(1), M = x.size(2);
+  const int64_t N = idx.size(1), k = idx.size(2);
+  // Offsets turn per-batch indices into rows of the flattened (B·M)×C table.
+  const auto offsets = torch::arange(B, idx.options()).view({B, 1, 1}) * M;
+  const auto flat = (idx + offsets).reshape({-1});
+  const auto table = x.transpose(1, 2).reshape({B * M, C});
+  return table.index_select(0, flat).view({B, N, k, C}).permute({0, 3, 1, 2});
+}
+
+torch::Tensor edgeVectors(const torch::Tensor& x, const torch::Tensor& idx) {
+  return gatherNeighbors(x, idx) - x.unsqueeze(3);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+namespace {
+
+nn::Sequential conv2dBnRelu(int64_t in, int64_t out) {
+  // The bias is left out because batch normalisation removes any per-channel constant.
+  return nn::Sequential(nn::Conv2d(nn::Conv2dOptions(in, out, 1).bias(false)), nn::BatchNorm2d(out),
+                        nn::ReLU());
+}
+
+nn::Sequential conv2dBnLrelu(int64_t in, int64_t out) {
+  return nn::Sequential(nn::Conv2d(nn::Conv2dOptions(in, out, 1).bias(false)), nn::BatchNorm2d(out),
+                        nn::LeakyReLU(nn::LeakyReLUOptions().negative_slope(0.2)));
+}
+
+/// Appends Conv1d(1×1, no bias) + BN + LeakyReLU(0.2) to `seq` (Sequentials cannot be nested).
+void addConv1dBnLrelu(nn::Sequential& seq, int64_t in, int64_t out) {
+  seq->push_back(nn::Conv1d(nn::Conv1dOptions(in, out, 1).bias(false)));
+  seq->push_back(nn::BatchNorm1d(out));
+  seq->push_back(nn::LeakyReLU(nn::LeakyReLUOptions().negative_slope(0.2)));
+}
+
+/// Appends Conv2d(1×1, no bias) + BN + LeakyReLU(0.2) to `seq`.
+void addConv2dBnLrelu(nn::Sequential& seq, int64_t in, int64_t out) {
+  seq->push_back(nn::Conv2d(nn::Conv2dOptions(in, out, 1).bias(false)));
+  seq->push_back(nn::BatchNorm2d(out));
+  seq->push_back(nn::LeakyReLU(nn::LeakyReLUOptions().negative_slope(0.2)));
+}
+
+}  // namespace
+
+DenseEdgeConvImpl::DenseEdgeConvImpl(int64_t k, int64_t emb_dims) : k_(k) {
+  // Dense connectivity: layer l sees the edge vectors (3) and the outputs of layers 1..l−1.
+  layer1_ = register_module("layer1", conv2dBnRelu(3, 32));
+  layer2_ = register_module("layer2", conv2dBnRelu(3 + 32, 32));
+  layer3_ = register_module("layer3", conv2dBnRelu(3 + 32 + 32, 64));
+  layer4_ = register_module("layer4", conv2dBnRelu(3 + 32 + 32 + 64, 128));
+  out_ = register_module(
+      "out",
+      nn::Sequential(nn::Conv1d(nn::Conv1dOptions(32 + 32 + 64 + 128, emb_dims, 1).bias(false)),
+                     nn::BatchNorm1d(emb_dims), nn::ReLU()));
+}
+
+torch::Tensor DenseEdgeConvImpl::forward(const torch::Tensor& x, const torch::Tensor& idx_in) {
+  OBM_ASSERT(x.dim() == 3 && x.size(1) == 3, "DenseEdgeConv expects points B×3×N");
+  const auto idx = idx_in.defined() ? idx_in : knnIndices(x, x, k_);
+  OBM_ASSERT(idx.size(2) == k_, "DenseEdgeConv: neighbour graph has the wrong k");
+  const auto e = edgeVectors(x, idx);  // B×3×N×k, only relative coordinates (translation invariant)
+  const auto h1 = layer1_->forward(e);
+  const auto h2 = layer2_->forward(torch::cat({e, h1}, 1));
+  const auto h3 = layer3_->forward(torch::cat({e, h1, h2}, 1));
+  const auto h4 = layer4_->forward(torch::cat({e, h1, h2, h3}, 1));
+  // Max over the k neighbours after each layer, then concatenation (32+32+64+128 = 256).
+  const auto pooled = torch::cat({h1.amax(3), h2.amax(3), h3.amax(3), h4.amax(3)}, 1);
+  return out_->forward(pooled);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+OverlapSamplerImpl::OverlapSamplerImpl(int64_t emb_dims, int64_t n_samples, double tau_min)
+    : n_samples_(n_samples), tau_min_(tau_min) {
+  const int64_t D = emb_dims;
+  const int64_t hidden = std::max<int64_t>(D / 4, 16);
+  // Per-point input: own feature (D) + both global features (2D). The last layer has no bias:
+  // π is a softmax over the points, which a common offset does not change.
+  nn::Sequential logits;
+  addConv1dBnLrelu(logits, 3 * D, D);
+  addConv1dBnLrelu(logits, D, hidden);
+  logits->push_back(nn::Conv1d(nn::Conv1dOptions(hidden, 1, 1).bias(false)));
+  logits_ = register_module("logits", logits);
+  tau_ = register_module(
+      "tau", nn::Sequential(nn::Linear(2 * D, hidden), nn::ReLU(), nn::Linear(hidden, 1)));
+  // Up(·): back to the feature width after the sampling (a learnt 1×1 map on the K samples).
+  up_ = register_module("up",
+                        nn::Sequential(nn::Conv1d(nn::Conv1dOptions(D, D, 1)),
+                                       nn::LeakyReLU(nn::LeakyReLUOptions().negative_slope(0.2))));
+}
+
+OverlapSamples OverlapSamplerImpl::forward(const torch::Tensor& phi_self,
+                                           const torch::Tensor& phi_other,
+                                           const torch::Tensor& points, at::Generator& gen) {
+  const int64_t B = phi_self.size(0), D = phi_self.size(1), N = phi_self.size(2);
+  OBM_ASSERT(points.size(2) == N && phi_other.size(1) == D, "OverlapSampler: inconsistent shapes");
+  OverlapSamples out;
+  // Fusion of the two clouds: global max pooling of each, concatenated (own first) and broadcast.
+  const auto global = torch::cat({phi_self.amax(2), phi_other.amax(2)}, 1);  // B×2D
+  const auto per_point = torch::cat({phi_self, global.unsqueeze(2).expand({B, 2 * D, N})}, 1);
+  out.log_pi = torch::log_softmax(logits_->forward(per_point).squeeze(1), 1);  // B×N
+  out.tau = torch::softplus(tau_->forward(global)).squeeze(1) + tau_min_;      // B
+
+  // Gumbel(0,1) noise g = −log(−log u), drawn on the CPU from the given generator so a fixed
+  // seed reproduces the same draws, then moved to the module's device.
+  const float eps = 1e-10f;
+  auto u = torch::rand({B, n_samples_, N}, gen, torch::TensorOptions().dtype(torch::kFloat32));
+  u = u.clamp(eps, 1.0f - eps).to(phi_self.device(), phi_self.scalar_type());
+  const auto gumbel = -torch::log(-torch::log(u));
+  const auto scores = out.log_pi.unsqueeze(1) + gumbel;  // B×K×N
+  if (is_training()) {
+    // Differentiable relaxation: softmax((log π + g)/τ).
+    out.selection = torch::softmax(scores / out.tau.view({B, 1, 1}), 2);
+  } else {
+    // Inference: the exact categorical draw one_hot(argmax(log π + g)) (τ does not change it).
+    out.selection = torch::one_hot(scores.argmax(2), N).to(phi_self.scalar_type());
+  }
+  const auto S_t = out.selection.transpose(1, 2);          // B×N×K
+  out.points = torch::bmm(points, S_t);                    // B×3×K
+  out.features = up_->forward(torch::bmm(phi_self, S_t));  // B×D×K
+  out.summary = out.features.amax(2);                      // B×D
+
+  const auto pi = out.log_pi.exp();
+  // m_i = 1 − (1 − π_i)^K, computed as 1 − exp(K·log1p(−π_i)) for accuracy with small π_i.
+  out.membership =
+      1.0 - torch::exp(static_cast<double>(n_samples_) * torch::log1p(-pi.clamp_max(1.0 - 1e-6)));
+  // Perplexity of π over N: exp(H(π))/N ∈ (0, 1].
+  const auto entropy = -(pi * out.log_pi).sum(1);
+  out.overlap = torch::exp(entropy) / static_cast<double>(N);
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+BiasPredictorImpl::BiasPredictorImpl() {
+  point_mlp_ = register_module(
+      "point_mlp", nn::Sequential(nn::Conv1d(nn::Conv1dOptions(4, 64, 1)), nn::ReLU(),
+                                  nn::Conv1d(nn::Conv1dOptions(64, 128, 1)), nn::ReLU(),
+                                  nn::Conv1d(nn::Conv1dOptions(128, 256, 1)), nn::ReLU()));
+  head_ =
+      register_module("head", nn::Sequential(nn::Linear(256, 128), nn::ReLU(), nn::Linear(128, 1)));
+}
+
+torch::Tensor BiasPredictorImpl::forward(const torch::Tensor& src_samples,
+                                         const torch::Tensor& tgt_samples) {
+  OBM_ASSERT(src_samples.dim() == 3 && src_samples.size(1) == 3 && tgt_samples.dim() == 3 &&
+                 tgt_samples.size(1) == 3,
+             "BiasPredictor expects sampled points B×3×K");
+  const int64_t B = src_samples.size(0);
+  // The (2K)×4 matrix [𝒫ᵒ | 0 ; 𝒬ᵒ | 1], channels first: B×4×(K+K').
+  const auto src_tag = torch::zeros({B, 1, src_samples.size(2)}, src_samples.options());
+  const auto tgt_tag = torch::ones({B, 1, tgt_samples.size(2)}, tgt_samples.options());
+  const auto x =
+      torch::cat({torch::cat({src_samples, src_tag}, 1), torch::cat({tgt_samples, tgt_tag}, 1)}, 2);
+  const auto pooled = point_mlp_->forward(x).amax(2);  // B×256
+  // softplus keeps α > 0; the tiny floor keeps it strictly positive where softplus underflows.
+  return torch::softplus(head_->forward(pooled)).squeeze(1) + 1e-6;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+InlierEvaluatorImpl::InlierEvaluatorImpl(int64_t dim) {
+  nn::Sequential shared;
+  addConv2dBnLrelu(shared, 3, dim);
+  addConv2dBnLrelu(shared, dim, 2 * dim);
+  shared_ = register_module("shared", shared);
+  feature_head_ = register_module("feature_head", conv2dBnLrelu(2 * dim, 2 * dim));
+  // No bias: the attention is a softmax over k, which a constant offset does not change.
+  attention_head_ =
+      register_module("attention_head", nn::Conv2d(nn::Conv2dOptions(2 * dim, 1, 1).bias(false)));
+  nn::Sequential score;
+  addConv1dBnLrelu(score, 2 * dim, 16);
+  addConv1dBnLrelu(score, 16, 8);
+  score->push_back(nn::Conv1d(nn::Conv1dOptions(8, 1, 1)));
+  score_ = register_module("score", score);
+}
+
+torch::Tensor InlierEvaluatorImpl::forward(const torch::Tensor& src,
+                                           const torch::Tensor& pseudo_tgt,
+                                           const torch::Tensor& idx) {
+  OBM_ASSERT(src.sizes() == pseudo_tgt.sizes(),
+             "InlierEvaluator: src and pseudo-target differ in shape");
+  const int64_t B = src.size(0);
+  const auto e_p = edgeVectors(src, idx);         // B×3×N×k
+  const auto e_q = edgeVectors(pseudo_tgt, idx);  // same neighbour indices: the correspondences
+  // One pass through the shared block for both, so they share the batch statistics too.
+  const auto h = shared_->forward(torch::cat({e_p, e_q}, 0));
+  const auto diff = h.narrow(0, 0, B) - h.narrow(0, B, B);  // B×2dim×N×k
+  const auto feat = feature_head_->forward(diff);
+  const auto att = torch::softmax(attention_head_->forward(diff), 3);  // B×1×N×k
+  const auto agg = (feat * att).sum(3);                                // B×2dim×N
+  const auto s = score_->forward(agg).squeeze(1);                      // B×N
+  return 1.0 - torch::tanh(s.abs());
+}
+
+}  // namespace obm::obmnet

@@ -1,0 +1,52 @@
+#include "obm/obmnet/svd.hpp"
+
+#include "obm/core/errors.hpp"
+
+namespace obm::obmnet {
+
+RigidTransforms weightedProcrustes(const torch::Tensor& src, const torch::Tensor& tgt,
+                                   const torch::Tensor& weights, double eps) {
+  OBM_ASSERT(src.dim() == 3 && src.size(1) == 3 && src.sizes() == tgt.sizes(),
+             "weightedProcrustes expects src and tgt B×3×N of equal shape");
+  OBM_ASSERT(weights.dim() == 2 && weights.size(0) == src.size(0) && weights.size(1) == src.size(2),
+             "weightedProcrustes expects weights B×N");
+  const auto dtype = src.scalar_type();
+  // The 3×3 problem is solved in double: negligible cost, and the SVD of a nearly degenerate H
+  // (and its backward pass) is far better conditioned.
+  const auto x = src.to(torch::kFloat64);
+  const auto y = tgt.to(torch::kFloat64);
+  auto w = weights.to(torch::kFloat64).clamp_min(0.0);
+  w = w / (w.sum(1, /*keepdim=*/true) + eps);
+  const auto wu = w.unsqueeze(1);      // B×1×N
+  const auto x_bar = (x * wu).sum(2);  // B×3 weighted centroids
+  const auto y_bar = (y * wu).sum(2);
+  const auto xc = x - x_bar.unsqueeze(2);
+  const auto yc = y - y_bar.unsqueeze(2);
+  const auto H = torch::bmm(xc * wu, yc.transpose(1, 2));  // Σ w (x − x̄)(y − ȳ)ᵀ, B×3×3
+  auto [U, S, Vh] = torch::linalg_svd(H, /*full_matrices=*/false);
+  const auto V = Vh.transpose(1, 2);
+  const auto Ut = U.transpose(1, 2);
+  // diag(1, 1, det(V Uᵀ)) turns a reflection into the closest proper rotation.
+  const auto det = torch::det(torch::bmm(V, Ut));
+  auto diag = torch::ones({src.size(0), 3}, x.options());
+  diag.select(1, 2).copy_(torch::where(det < 0, -torch::ones_like(det), torch::ones_like(det)));
+  const auto R = torch::bmm(V * diag.unsqueeze(1), Ut);
+  const auto t = y_bar - torch::bmm(R, x_bar.unsqueeze(2)).squeeze(2);
+  return {R.to(dtype), t.to(dtype)};
+}
+
+torch::Tensor transformPoints(const RigidTransforms& T, const torch::Tensor& points) {
+  return torch::bmm(T.R, points) + T.t.unsqueeze(2);
+}
+
+RigidTransforms compose(const RigidTransforms& T_a_b, const RigidTransforms& T_b_c) {
+  return {torch::bmm(T_a_b.R, T_b_c.R),
+          torch::bmm(T_a_b.R, T_b_c.t.unsqueeze(2)).squeeze(2) + T_a_b.t};
+}
+
+RigidTransforms identityTransforms(int64_t batch, const torch::TensorOptions& options) {
+  return {torch::eye(3, options).unsqueeze(0).repeat({batch, 1, 1}),
+          torch::zeros({batch, 3}, options)};
+}
+
+}  // namespace obm::obmnet

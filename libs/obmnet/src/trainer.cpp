@@ -1,0 +1,416 @@
+#include "obm/obmnet/trainer.hpp"
+
+#include <torch/torch.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+
+#include "obm/config/config_node.hpp"
+#include "obm/core/atomic_file.hpp"
+#include "obm/core/errors.hpp"
+#include "obm/core/log.hpp"
+#include "obm/core/progress.hpp"
+#include "obm/core/timer.hpp"
+#include "obm/obmnet/model.hpp"
+#include "obm/obmnet/model_io.hpp"
+
+namespace obm::obmnet {
+
+TrainConfig TrainConfig::load(const ConfigNode& root) {
+  root.checkKeys({"model", "train", "data"});  // `data:` is read by the tools
+  TrainConfig c;
+  c.model = ObmNetConfig::load(root.child("model"));
+  const ConfigNode t = root.child("train");
+  t.checkKeys({"pairs", "val_pairs_protocol", "batch_size", "epochs", "pairs_per_epoch",
+               "val_pairs", "lr", "weight_decay", "lr_steps", "lr_gamma", "normalize_radius",
+               "recall_deg", "recall_trans", "max_grad_norm", "threads", "seed", "max_hours"});
+  c.protocol = PairProtocol::load(t.child("pairs"));
+  c.val_protocol =
+      t.has("val_pairs_protocol") ? PairProtocol::load(t.child("val_pairs_protocol")) : c.protocol;
+  t.get("batch_size", c.batch_size);
+  t.get("epochs", c.epochs);
+  t.get("pairs_per_epoch", c.pairs_per_epoch);
+  t.get("val_pairs", c.val_pairs);
+  t.get("lr", c.lr);
+  t.get("weight_decay", c.weight_decay);
+  t.get("lr_steps", c.lr_steps);
+  t.get("lr_gamma", c.lr_gamma);
+  t.get("normalize_radius", c.normalize_radius);
+  t.get("recall_deg", c.recall_deg);
+  t.get("recall_trans", c.recall_trans);
+  t.get("max_grad_norm", c.max_grad_norm);
+  t.get("threads", c.threads);
+  t.get("seed", c.seed);
+  t.get("max_hours", c.max_hours);
+  auto positive = [&](const char* key, double v) {
+    if (!(v > 0)) throw ConfigError(t.where(key) + ": must be > 0");
+  };
+  positive("batch_size", c.batch_size);
+  positive("epochs", c.epochs);
+  positive("pairs_per_epoch", c.pairs_per_epoch);
+  positive("val_pairs", c.val_pairs);
+  positive("lr", c.lr);
+  positive("lr_gamma", c.lr_gamma);
+  positive("normalize_radius", c.normalize_radius);
+  positive("threads", c.threads);
+  return c;
+}
+
+namespace {
+
+/// A batch of normalised pairs as tensors, and what is needed to score them.
+struct Batch {
+  torch::Tensor src, tgt;  ///< B×3×N, B×3×M
+  std::vector<RegistrationPair> pairs;
+  std::vector<PairNormalization> norms;
+};
+
+torch::Tensor cloudTensor(const PointCloud& c) {
+  auto t = torch::empty({3, static_cast<int64_t>(c.size())}, torch::kFloat32);
+  auto a = t.accessor<float, 2>();
+  for (std::size_t i = 0; i < c.size(); ++i)
+    for (int d = 0; d < 3; ++d) a[d][static_cast<int64_t>(i)] = c.points[i][d];
+  return t;
+}
+
+Batch makeBatch(std::vector<RegistrationPair> pairs, double radius) {
+  Batch b;
+  std::vector<torch::Tensor> s, t;
+  for (auto& p : pairs) {
+    const auto n = PairNormalization::compute(p.source, p.target, radius);
+    PointCloud src = p.source, tgt = p.target;
+    n.applySource(src);
+    n.applyTarget(tgt);
+    s.push_back(cloudTensor(src));
+    t.push_back(cloudTensor(tgt));
+    b.norms.push_back(n);
+  }
+  b.src = torch::stack(s);
+  b.tgt = torch::stack(t);
+  b.pairs = std::move(pairs);
+  return b;
+}
+
+Isometry3d toIsometry(const torch::Tensor& R, const torch::Tensor& t, int64_t i) {
+  const auto Rd = R[i].to(torch::kFloat64).contiguous();
+  const auto td = t[i].to(torch::kFloat64).contiguous();
+  Eigen::Matrix3d Rm;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) Rm(r, c) = Rd[r][c].item<double>();
+  return makeIsometry(
+      Rm, Eigen::Vector3d(td[0].item<double>(), td[1].item<double>(), td[2].item<double>()));
+}
+
+std::string csvHeader() {
+  return "epoch,lr,loss,loss_global,loss_neighbor,loss_spatial,val_loss,val_mie_r_deg,val_mie_t,"
+         "val_recall,val_mean_alpha,pairs_per_s,wall_s,best\n";
+}
+
+std::string csvRow(const EpochStats& s) {
+  std::ostringstream os;
+  os << std::setprecision(8) << s.epoch << ',' << s.lr << ',' << s.loss << ',' << s.loss_global
+     << ',' << s.loss_neighbor << ',' << s.loss_spatial << ',' << s.val_loss << ',' << s.val_mie_r
+     << ',' << s.val_mie_t << ',' << s.val_recall << ',' << s.val_mean_alpha << ',' << s.pairs_per_s
+     << ',' << s.wall_s << ',' << (s.best ? 1 : 0) << '\n';
+  return os.str();
+}
+
+}  // namespace
+
+struct Trainer::Impl {
+  TrainConfig cfg;
+  std::vector<PointCloud> train, val;
+  std::string out;
+  ObmNet model{nullptr};
+  std::unique_ptr<torch::optim::Adam> optim;
+  std::vector<RegistrationPair> val_pairs;
+  long skipped = 0;  ///< batches skipped for non-finite loss or gradients
+
+  Impl(TrainConfig c, std::vector<PointCloud> tr, std::vector<PointCloud> va, std::string o)
+      : cfg(std::move(c)), train(std::move(tr)), val(std::move(va)), out(std::move(o)) {
+    if (train.empty()) throw ContractError("Trainer: no training clouds");
+    if (val.empty()) throw ContractError("Trainer: no validation clouds");
+    torch::manual_seed(cfg.seed);
+    ObmNetConfig mc = cfg.model;
+    mc.seed = cfg.seed;
+    model = ObmNet(mc);
+    optim = std::make_unique<torch::optim::Adam>(
+        model->parameters(), torch::optim::AdamOptions(cfg.lr).weight_decay(cfg.weight_decay));
+    // Fixed validation pairs: the same every epoch, so scores are comparable.
+    std::mt19937_64 rng(cfg.seed * 7919u + 17u);
+    for (int i = 0; i < cfg.val_pairs; ++i) {
+      const auto& c = val[static_cast<std::size_t>(i) % val.size()];
+      val_pairs.push_back(makePair(c, cfg.val_protocol, rng));
+    }
+  }
+
+  double lrForEpoch(int epoch) const {  // epoch is 1-based
+    double lr = cfg.lr;
+    for (int s : cfg.lr_steps)
+      if (epoch >= s) lr *= cfg.lr_gamma;
+    return lr;
+  }
+
+  void setLr(double lr) {
+    for (auto& g : optim->param_groups())
+      static_cast<torch::optim::AdamOptions&>(g.options()).lr(lr);
+  }
+
+  std::vector<RegistrationPair> drawPairs(std::mt19937_64& rng, int n) const {
+    std::vector<RegistrationPair> pairs;
+    std::uniform_int_distribution<std::size_t> pick(0, train.size() - 1);
+    for (int i = 0; i < n; ++i) pairs.push_back(makePair(train[pick(rng)], cfg.protocol, rng));
+    return pairs;
+  }
+
+  /// One optimisation step; returns the loss terms.
+  std::array<double, 4> step(const Batch& b) {
+    model->train();
+    optim->zero_grad();
+    const auto o = model->forward(b.src, b.tgt, /*compute_loss=*/true);
+    if (!std::isfinite(o.loss.item<double>())) {
+      ++skipped;
+      OBM_LOG_WARN_THROTTLE("obm-train", 10.0,
+                            "non-finite loss; batch skipped (" << skipped << " so far)");
+      return {0.0, 0.0, 0.0, 0.0};
+    }
+    o.loss.backward();
+    // A degenerate batch (e.g. repeated singular values in the SVD backward) can produce
+    // non-finite gradients; one such batch must not destroy the weights.
+    bool finite = true;
+    for (const auto& p : model->parameters())
+      if (p.grad().defined() && !torch::isfinite(p.grad()).all().item<bool>()) {
+        finite = false;
+        break;
+      }
+    if (!finite) {
+      ++skipped;
+      OBM_LOG_WARN_THROTTLE("obm-train", 10.0,
+                            "non-finite gradient; batch skipped (" << skipped << " so far)");
+      optim->zero_grad();
+      return {o.loss.item<double>(), o.loss_global.item<double>(), o.loss_neighbor.item<double>(),
+              o.loss_spatial.item<double>()};
+    }
+    if (cfg.max_grad_norm > 0)
+      torch::nn::utils::clip_grad_norm_(model->parameters(), cfg.max_grad_norm);
+    optim->step();
+    return {o.loss.item<double>(), o.loss_global.item<double>(), o.loss_neighbor.item<double>(),
+            o.loss_spatial.item<double>()};
+  }
+
+  ValidationScores validate() {
+    torch::NoGradGuard ng;
+    model->eval();
+    ValidationScores s;
+    int hits = 0;
+    const std::size_t B = static_cast<std::size_t>(cfg.batch_size);
+    for (std::size_t i0 = 0; i0 < val_pairs.size(); i0 += B) {
+      std::vector<RegistrationPair> chunk(
+          val_pairs.begin() + static_cast<std::ptrdiff_t>(i0),
+          val_pairs.begin() + static_cast<std::ptrdiff_t>(std::min(val_pairs.size(), i0 + B)));
+      const Batch b = makeBatch(std::move(chunk), cfg.normalize_radius);
+      const auto o = model->forward(b.src, b.tgt, true);
+      s.loss += o.loss.item<double>() * static_cast<double>(b.pairs.size());
+      for (std::size_t j = 0; j < b.pairs.size(); ++j) {
+        const Isometry3d T = b.norms[j].denormalize(toIsometry(o.R, o.t, static_cast<int64_t>(j)));
+        const Isometry3d& G = b.pairs[j].T_target_source;
+        const double er = rotationAngle(G.linear().transpose() * T.linear()) * kRadToDeg;
+        const double et = (T.translation() - G.translation()).norm();
+        s.mie_r += er;
+        s.mie_t += et;
+        hits += (er < cfg.recall_deg && et < cfg.recall_trans) ? 1 : 0;
+        s.mean_alpha += o.alpha[static_cast<int64_t>(j)].item<double>();
+      }
+    }
+    const double n = static_cast<double>(val_pairs.size());
+    s.loss /= n;
+    s.mie_r /= n;
+    s.mie_t /= n;
+    s.mean_alpha /= n;
+    s.recall = hits / n;
+    return s;
+  }
+
+  // ---- checkpoint: model + optimiser + progress ----
+  std::string ckptPath() const { return out + "/checkpoint.pt"; }
+
+  void saveCheckpoint(int epoch, double best, double wall_s) {
+    torch::serialize::OutputArchive a;
+    torch::serialize::OutputArchive m, o;
+    model->save(m);
+    optim->save(o);
+    a.write("model", m);
+    a.write("optimizer", o);
+    a.write("epoch", c10::IValue(static_cast<int64_t>(epoch)));
+    a.write("best_val_mie_r", c10::IValue(best));
+    a.write("wall_s", c10::IValue(wall_s));
+    const std::string tmp = temporaryPathFor(ckptPath());
+    a.save_to(tmp);
+    commitTemporaryFile(tmp, ckptPath());
+  }
+
+  /// Returns (epoch done, best, wall) or epoch 0 when there is no checkpoint.
+  std::tuple<int, double, double> loadCheckpoint() {
+    if (!std::filesystem::exists(ckptPath())) return {0, 1e300, 0.0};
+    torch::serialize::InputArchive a, m, o;
+    try {
+      a.load_from(ckptPath());
+      a.read("model", m);
+      a.read("optimizer", o);
+      model->load(m);
+      optim->load(o);
+    } catch (const c10::Error& e) {
+      throw FormatError(
+          ckptPath(), 0,
+          std::string("cannot resume from this checkpoint (") + e.what_without_backtrace() + ")");
+    }
+    c10::IValue v;
+    a.read("epoch", v);
+    const int epoch = static_cast<int>(v.toInt());
+    a.read("best_val_mie_r", v);
+    const double best = v.toDouble();
+    a.read("wall_s", v);
+    return {epoch, best, v.toDouble()};
+  }
+};
+
+Trainer::Trainer(TrainConfig config, std::vector<PointCloud> train_clouds,
+                 std::vector<PointCloud> val_clouds, std::string out_dir)
+    : impl_(std::make_unique<Impl>(std::move(config), std::move(train_clouds),
+                                   std::move(val_clouds), std::move(out_dir))) {}
+
+Trainer::~Trainer() = default;
+
+ValidationScores Trainer::validate() {
+  return impl_->validate();
+}
+
+double Trainer::measureThroughput(int n_batches) {
+  std::mt19937_64 rng(impl_->cfg.seed + 99u);
+  // One warm-up batch (allocations), then timed ones.
+  impl_->step(makeBatch(impl_->drawPairs(rng, impl_->cfg.batch_size), impl_->cfg.normalize_radius));
+  Timer t;
+  for (int i = 0; i < n_batches; ++i)
+    impl_->step(
+        makeBatch(impl_->drawPairs(rng, impl_->cfg.batch_size), impl_->cfg.normalize_radius));
+  return n_batches * impl_->cfg.batch_size / t.seconds();
+}
+
+std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& stop,
+                                     const std::function<void(const EpochStats&)>& on_epoch) {
+  Impl& I = *impl_;
+  ensureDirectory(I.out);
+  writeTextAtomically(
+      I.out + "/config.yaml", "# configuration of this run (model + training)\nmodel:\n" + [&] {
+        std::string y = I.cfg.model.toYaml(), r;
+        std::istringstream is(y);
+        for (std::string line; std::getline(is, line);) r += "  " + line + "\n";
+        return r;
+      }());
+  int start_epoch = 0;
+  double best = 1e300, wall0 = 0.0;
+  if (resume) {
+    std::tie(start_epoch, best, wall0) = I.loadCheckpoint();
+    if (start_epoch > 0)
+      OBM_LOG_INFO("obm-train", "resuming after epoch " << start_epoch << " (best val MIE(R) "
+                                                        << best << " deg, " << wall0
+                                                        << " s trained)");
+  }
+  const std::string csv = I.out + "/train_log.csv";
+  std::string csv_text;
+  if (start_epoch > 0 && std::filesystem::exists(csv)) {
+    // Keep the rows of the epochs the checkpoint holds (later rows belong to an interrupted run).
+    std::ifstream in(csv);
+    std::string line;
+    std::getline(in, line);
+    csv_text = csvHeader();
+    while (std::getline(in, line)) {
+      if (line.empty()) continue;
+      if (std::stoi(line.substr(0, line.find(','))) <= start_epoch) csv_text += line + "\n";
+    }
+  } else {
+    csv_text = csvHeader();
+  }
+  writeTextAtomically(csv, csv_text);
+
+  std::vector<EpochStats> stats;
+  const int steps = (I.cfg.pairs_per_epoch + I.cfg.batch_size - 1) / I.cfg.batch_size;
+  Timer wall;
+  for (int epoch = start_epoch + 1; epoch <= I.cfg.epochs; ++epoch) {
+    if (I.cfg.max_hours > 0 && wall0 + wall.seconds() > I.cfg.max_hours * 3600.0) {
+      OBM_LOG_WARN("obm-train", "max_hours reached; stopping before epoch " << epoch);
+      break;
+    }
+    EpochStats s;
+    s.epoch = epoch;
+    s.lr = I.lrForEpoch(epoch);
+    I.setLr(s.lr);
+    // Pairs of epoch e depend only on (seed, e): a resumed run sees the same data.
+    std::mt19937_64 rng(I.cfg.seed * 1000003u + static_cast<std::uint64_t>(epoch));
+    ProgressBar bar(static_cast<std::size_t>(steps),
+                    "epoch " + std::to_string(epoch) + "/" + std::to_string(I.cfg.epochs),
+                    "batches");
+    Timer et;
+    bool interrupted = false;
+    for (int k = 0; k < steps; ++k) {
+      if (stop && stop()) {
+        interrupted = true;
+        break;
+      }
+      const auto l = I.step(makeBatch(I.drawPairs(rng, I.cfg.batch_size), I.cfg.normalize_radius));
+      s.loss += l[0];
+      s.loss_global += l[1];
+      s.loss_neighbor += l[2];
+      s.loss_spatial += l[3];
+      std::ostringstream st;
+      st << std::setprecision(4) << "loss " << s.loss / (k + 1) << "  " << std::setprecision(3)
+         << (k + 1) * I.cfg.batch_size / et.seconds() << " pairs/s";
+      bar.update(static_cast<std::size_t>(k + 1), st.str());
+    }
+    if (interrupted) {
+      bar.finish("interrupted");
+      OBM_LOG_WARN("obm-train", "interrupted: epoch "
+                                    << epoch << " discarded, checkpoint holds epoch " << epoch - 1);
+      break;
+    }
+    const double train_s = et.seconds();
+    s.pairs_per_s = steps * I.cfg.batch_size / train_s;
+    s.loss /= steps;
+    s.loss_global /= steps;
+    s.loss_neighbor /= steps;
+    s.loss_spatial /= steps;
+    const auto v = I.validate();
+    s.val_loss = v.loss;
+    s.val_mie_r = v.mie_r;
+    s.val_mie_t = v.mie_t;
+    s.val_recall = v.recall;
+    s.val_mean_alpha = v.mean_alpha;
+    s.wall_s = wall0 + wall.seconds();
+    if (v.mie_r < best) {
+      best = v.mie_r;
+      s.best = true;
+      ModelMeta meta;
+      meta.normalize_radius = I.cfg.normalize_radius;
+      meta.num_points =
+          I.cfg.protocol.partial_keep > 0 ? I.cfg.protocol.partial_keep : I.cfg.protocol.num_points;
+      meta.description =
+          "epoch " + std::to_string(epoch) + ", val MIE(R) " + std::to_string(v.mie_r) + " deg";
+      saveModel(I.out + "/best.pt", I.model, meta);
+    }
+    std::ostringstream st;
+    st << std::setprecision(4) << "loss " << s.loss << "  val MIE(R) " << v.mie_r << " deg  recall "
+       << v.recall << (s.best ? "  *best*" : "");
+    bar.finish(st.str());
+    I.saveCheckpoint(epoch, best, s.wall_s);
+    csv_text += csvRow(s);
+    writeTextAtomically(csv, csv_text);
+    stats.push_back(s);
+    if (on_epoch) on_epoch(s);
+  }
+  return stats;
+}
+
+}  // namespace obm::obmnet

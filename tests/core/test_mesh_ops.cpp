@@ -1,0 +1,80 @@
+#include <gtest/gtest.h>
+
+#include "obm/core/cloud_ops.hpp"
+#include "obm/core/errors.hpp"
+#include "obm/core/mesh.hpp"
+
+using namespace obm;
+
+namespace {
+TriangleMesh unitSquare() {  // two triangles in z = 0, area 1
+  TriangleMesh m;
+  m.name = "square";
+  m.vertices = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  m.faces = {{0, 1, 2}, {0, 2, 3}};
+  return m;
+}
+}  // namespace
+
+TEST(Mesh, AreaAppendTransformValidate) {
+  auto m = unitSquare();
+  EXPECT_NEAR(m.area(), 1.0, 1e-12);
+  auto m2 = m;
+  m2.append(unitSquare());
+  EXPECT_EQ(m2.numFaces(), 4u);
+  EXPECT_EQ(m2.faces[2], Eigen::Vector3i(4, 5, 6));
+  EXPECT_NEAR(m2.area(), 2.0, 1e-12);
+  m.faces.emplace_back(0, 1, 9);
+  EXPECT_THROW(m.validate(), ContractError);
+}
+
+TEST(Mesh, SurfaceSamplesAreOnTheSurfaceAndUniform) {
+  // A 1×1 square plus a 3×1 rectangle elsewhere: 25 % / 75 % of the samples by area.
+  auto m = unitSquare();
+  TriangleMesh r;
+  r.vertices = {{10, 0, 0}, {13, 0, 0}, {13, 1, 0}, {10, 1, 0}};
+  r.faces = {{0, 1, 2}, {0, 2, 3}};
+  m.append(r);
+  std::mt19937_64 rng(1);
+  const auto c = sampleSurface(m, 20000, rng);
+  int in_square = 0;
+  for (const auto& p : c.points) {
+    EXPECT_FLOAT_EQ(p.z(), 0.f);
+    EXPECT_TRUE((p.x() >= 0 && p.x() <= 1) || (p.x() >= 10 && p.x() <= 13));
+    in_square += p.x() <= 1 ? 1 : 0;
+  }
+  EXPECT_NEAR(in_square / 20000.0, 0.25, 0.015);
+  TriangleMesh flat;
+  flat.vertices = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}};
+  flat.faces = {{0, 1, 2}};
+  EXPECT_THROW(sampleSurface(flat, 10, rng), ContractError);
+}
+
+TEST(CloudOps, NormalizeVoxelSubsetCrop) {
+  PointCloud c;
+  c.points = {{1, 1, 1}, {3, 1, 1}, {1.05f, 1.02f, 1.01f}};
+  c.intensity = {1.f, 2.f, 3.f};
+  auto n = c;
+  normalizeToSphere(n, 1.f);
+  float rmax = 0;
+  for (const auto& p : n.points) rmax = std::max(rmax, p.norm());
+  EXPECT_NEAR(rmax, 1.f, 1e-6);
+  EXPECT_NEAR(n.centroid().norm(), 0.f, 1e-6);
+
+  const auto v = voxelDownsample(c, 0.5);
+  ASSERT_EQ(v.size(), 2u);  // points 0 and 2 share a voxel
+  EXPECT_NEAR(v.points[0].x(), 1.025f, 1e-6);
+  EXPECT_NEAR(v.intensity[0], 2.f, 1e-6);
+  EXPECT_EQ(voxelDownsample(c, 0.0).size(), 3u);
+
+  std::mt19937_64 rng(2);
+  std::vector<std::size_t> idx;
+  const auto s = randomSubset(c, 2, rng, &idx);
+  ASSERT_EQ(s.size(), 2u);
+  EXPECT_NE(idx[0], idx[1]);
+  EXPECT_EQ(s.points[0], c.points[idx[0]]);
+  EXPECT_EQ(randomSubset(c, 10, rng).size(), 3u);
+
+  const auto r = cropRange(c, 0.0, 2.0);
+  EXPECT_EQ(r.size(), 2u);
+}

@@ -1,0 +1,251 @@
+// OBMNet: shapes, gradients, α > 0, weighted SVD, NMM equivalence, determinism, losses.
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include "obm/core/errors.hpp"
+#include "obm/obmnet/losses.hpp"
+#include "obm/obmnet/model.hpp"
+#include "obm/obmnet/nmm.hpp"
+#include "obm/obmnet/svd.hpp"
+
+using namespace obm;
+using namespace obm::obmnet;
+
+namespace {
+
+ObmNetConfig smallConfig() {
+  ObmNetConfig c;
+  c.emb_dims = 32;
+  c.dim = 4;
+  c.k1 = 5;
+  c.k2 = 4;
+  c.n_keypoints = 16;
+  c.n_samples = 8;
+  c.n_iters = 2;
+  c.seed = 3;
+  return c;
+}
+
+/// A random rotation (QR of a Gaussian matrix, det fixed to +1), double.
+torch::Tensor randomRotation(int64_t B) {
+  auto A = torch::randn({B, 3, 3}, torch::kFloat64);
+  auto [Q, R] = torch::linalg_qr(A);
+  const auto d = torch::sign(torch::diagonal(R, 0, 1, 2));
+  Q = Q * d.unsqueeze(1);
+  const auto det = torch::det(Q);
+  Q.select(2, 0).mul_(det.unsqueeze(1));
+  return Q;
+}
+
+}  // namespace
+
+TEST(ObmNet, OutputShapesAndAlphaPositive) {
+  torch::manual_seed(0);
+  ObmNet net(smallConfig());
+  const auto src = torch::randn({2, 3, 40});
+  const auto tgt = torch::randn({2, 3, 36});
+  net->train();
+  const auto o = net->forward(src, tgt, true);
+  EXPECT_EQ(o.R.sizes(), (std::vector<int64_t>{2, 3, 3}));
+  EXPECT_EQ(o.t.sizes(), (std::vector<int64_t>{2, 3}));
+  EXPECT_EQ(o.weights.sizes(), (std::vector<int64_t>{2, 40}));
+  EXPECT_EQ(o.alpha.sizes(), (std::vector<int64_t>{2}));
+  EXPECT_TRUE((o.alpha > 0).all().item<bool>());
+  EXPECT_TRUE((o.weights > 0).all().item<bool>());
+  EXPECT_TRUE((o.weights <= 1).all().item<bool>());
+  EXPECT_TRUE((o.overlap > 0).all().item<bool>() && (o.overlap <= 1.0 + 1e-6).all().item<bool>());
+  EXPECT_EQ(o.loss.dim(), 0);
+  // R is a rotation.
+  const auto RtR = torch::bmm(o.R.transpose(1, 2), o.R);
+  EXPECT_TRUE(torch::allclose(RtR, torch::eye(3).expand({2, 3, 3}), 1e-4, 1e-4));
+  EXPECT_NEAR(torch::det(o.R).min().item<double>(), 1.0, 1e-4);
+}
+
+TEST(ObmNet, GradientsReachEveryParameter) {
+  torch::manual_seed(1);
+  ObmNet net(smallConfig());
+  net->train();
+  const auto src = torch::randn({2, 3, 48});
+  const auto tgt = torch::randn({2, 3, 48});
+  const auto o = net->forward(src, tgt, true);
+  o.loss.backward();
+  int n = 0;
+  for (const auto& p : net->named_parameters()) {
+    ASSERT_TRUE(p.value().grad().defined()) << p.key() << " gets no gradient";
+    EXPECT_GT(p.value().grad().abs().sum().item<double>(), 0.0)
+        << p.key() << " has a zero gradient";
+    ++n;
+  }
+  EXPECT_GT(n, 20);
+}
+
+TEST(ObmNet, EvalIsDeterministicAndSeedMatters) {
+  torch::manual_seed(2);
+  ObmNet a(smallConfig());
+  a->eval();
+  torch::NoGradGuard ng;
+  const auto src = torch::randn({1, 3, 50});
+  const auto tgt = torch::randn({1, 3, 50});
+  const auto o1 = a->forward(src, tgt);
+  const auto o2 = a->forward(src, tgt);
+  EXPECT_TRUE(torch::equal(o1.R, o2.R));
+  EXPECT_TRUE(torch::equal(o1.t, o2.t));
+  EXPECT_TRUE(torch::equal(o1.membership, o2.membership));
+  // The same weights with another Gumbel seed draw other overlap samples.
+  auto cfg = smallConfig();
+  cfg.seed = 99;
+  torch::manual_seed(2);
+  ObmNet b(cfg);
+  b->eval();
+  const auto o3 = b->forward(src, tgt);
+  EXPECT_FALSE(torch::equal(o1.membership, o3.membership));
+}
+
+TEST(ObmNet, TrainingIsDeterministicUnderAFixedSeed) {
+  auto run = [] {
+    torch::manual_seed(7);
+    ObmNet net(smallConfig());
+    net->train();
+    torch::manual_seed(8);
+    const auto src = torch::randn({2, 3, 32});
+    const auto tgt = torch::randn({2, 3, 32});
+    return net->forward(src, tgt, true).loss.item<double>();
+  };
+  EXPECT_EQ(run(), run());
+}
+
+TEST(ObmNet, AblationSwitchesBuildAndRun) {
+  for (int mask = 0; mask < 8; ++mask) {
+    auto c = smallConfig();
+    c.use_overlap_sampling = mask & 1;
+    c.use_bias_prediction = (mask & 2) && c.use_overlap_sampling;
+    c.use_nmm = mask & 4;
+    ObmNet net(c);
+    net->train();
+    const auto o = net->forward(torch::randn({2, 3, 24}), torch::randn({2, 3, 24}), true);
+    EXPECT_TRUE(std::isfinite(o.loss.item<double>())) << "mask " << mask;
+    if (!c.use_bias_prediction) EXPECT_TRUE(torch::all(o.alpha == 1).item<bool>());
+  }
+  auto bad = smallConfig();
+  bad.use_overlap_sampling = false;
+  bad.use_bias_prediction = true;
+  EXPECT_THROW(ObmNet{bad}, ConfigError);
+}
+
+TEST(ObmNet, RejectsMalformedInput) {
+  ObmNet net(smallConfig());
+  EXPECT_THROW(net->forward(torch::randn({1, 2, 30}), torch::randn({1, 3, 30})), ContractError);
+  EXPECT_THROW(net->forward(torch::randn({1, 3, 3}), torch::randn({1, 3, 30})), ContractError);
+}
+
+TEST(WeightedSvd, ExactOnNoiseFreeCorrespondences) {
+  torch::manual_seed(4);
+  const int64_t B = 3, N = 50;
+  const auto R = randomRotation(B);
+  const auto t = torch::randn({B, 3}, torch::kFloat64);
+  const auto x = torch::randn({B, 3, N}, torch::kFloat64);
+  const auto y = torch::bmm(R, x) + t.unsqueeze(2);
+  const auto w = torch::rand({B, N}, torch::kFloat64) + 0.1;
+  const auto T = weightedProcrustes(x, y, w);
+  EXPECT_TRUE(torch::allclose(T.R, R, 1e-9, 1e-9));
+  EXPECT_TRUE(torch::allclose(T.t, t, 1e-9, 1e-9));
+}
+
+TEST(WeightedSvd, ZeroWeightIgnoresOutliers) {
+  torch::manual_seed(5);
+  const auto R = randomRotation(1);
+  const auto t = torch::randn({1, 3}, torch::kFloat64);
+  const auto x = torch::randn({1, 3, 40}, torch::kFloat64);
+  auto y = torch::bmm(R, x) + t.unsqueeze(2);
+  auto w = torch::ones({1, 40}, torch::kFloat64);
+  // Corrupt 10 correspondences and give them weight 0: the result stays exact.
+  y.narrow(2, 0, 10).add_(torch::randn({1, 3, 10}, torch::kFloat64) * 5.0);
+  w.narrow(1, 0, 10).zero_();
+  const auto T = weightedProcrustes(x, y, w);
+  EXPECT_TRUE(torch::allclose(T.R, R, 1e-9, 1e-9));
+  // With uniform weights the corrupted points pull it off.
+  const auto T2 = weightedProcrustes(x, y, torch::ones({1, 40}, torch::kFloat64));
+  EXPECT_FALSE(torch::allclose(T2.R, R, 1e-3, 1e-3));
+}
+
+TEST(WeightedSvd, NeverReturnsAReflection) {
+  // y is a mirror image of x: the best orthogonal map is a reflection; the result must be proper.
+  torch::manual_seed(6);
+  const auto x = torch::randn({1, 3, 30}, torch::kFloat64);
+  auto y = x.clone();
+  y.select(1, 2).neg_();
+  const auto T = weightedProcrustes(x, y, torch::ones({1, 30}, torch::kFloat64));
+  EXPECT_NEAR(torch::det(T.R).item<double>(), 1.0, 1e-9);
+}
+
+TEST(Nmm, FastFormEqualsLiteralGather) {
+  torch::manual_seed(9);
+  const int64_t B = 2, N = 13, M = 11;
+  const auto M_feat = torch::rand({B, N, M}, torch::kFloat64) * 3.0;
+  const auto ps = torch::randn({B, 3, N}, torch::kFloat64);
+  const auto pt = torch::randn({B, 3, M}, torch::kFloat64);
+  for (int64_t k : {1, 3, 5}) {
+    const auto si = knnIndices(ps, ps, k);
+    const auto ti = knnIndices(pt, pt, k);
+    const NmmParams p{0.6, 1e-6};
+    const auto fast = nmmEnhancedCost(M_feat, si, ti, p);
+    const auto slow = nmmEnhancedCostLiteral(M_feat, si, ti, p);
+    EXPECT_TRUE(torch::allclose(fast, slow, 1e-10, 1e-12)) << "k = " << k;
+  }
+  // Different neighbourhood sizes on the two sides.
+  const auto si = knnIndices(ps, ps, 4);
+  const auto ti = knnIndices(pt, pt, 2);
+  EXPECT_TRUE(torch::allclose(nmmEnhancedCost(M_feat, si, ti, {}),
+                              nmmEnhancedCostLiteral(M_feat, si, ti, {}), 1e-10, 1e-12));
+  // M^r is row-stochastic.
+  const auto Mr = nmm(M_feat, si, ti, {});
+  EXPECT_TRUE(torch::allclose(Mr.sum(2), torch::ones({B, N}, torch::kFloat64), 1e-12, 1e-12));
+}
+
+TEST(Knn, SelfFirstAndSorted) {
+  const auto x = torch::tensor({0.0, 1.0, 3.0, 7.0}, torch::kFloat32)
+                     .view({1, 1, 4})
+                     .expand({1, 3, 4})
+                     .contiguous();
+  const auto idx = knnIndices(x, x, 3);
+  EXPECT_EQ(idx[0][0][0].item<int64_t>(), 0);
+  EXPECT_EQ(idx[0][0][1].item<int64_t>(), 1);
+  EXPECT_EQ(idx[0][0][2].item<int64_t>(), 2);
+  EXPECT_EQ(idx[0][3][1].item<int64_t>(), 2);
+}
+
+TEST(Losses, HuberIsContinuousAndQuadraticBelowMargin) {
+  const double c = 0.01;
+  const auto x = torch::tensor({0.0, 0.005, c - 1e-9, c, 0.02}, torch::kFloat64);
+  const auto h = huber(x, c);
+  EXPECT_DOUBLE_EQ(h[1].item<double>(), 0.5 * 0.005 * 0.005);
+  EXPECT_NEAR(h[2].item<double>(), h[3].item<double>(), 1e-10);
+  EXPECT_DOUBLE_EQ(h[4].item<double>(), c * 0.02 - 0.5 * c * c);
+}
+
+TEST(Losses, GlobalAlignmentZeroWhenAligned) {
+  torch::manual_seed(10);
+  const auto x = torch::randn({2, 3, 30});
+  EXPECT_NEAR(globalAlignmentLoss(x, x, 0.01).item<double>(), 0.0, 1e-10);
+  EXPECT_GT(globalAlignmentLoss(x + 0.3, x, 0.01).item<double>(), 1e-4);
+}
+
+TEST(Losses, NeighborhoodZeroForExactRigidMotion) {
+  torch::manual_seed(11);
+  const auto R = randomRotation(1).to(torch::kFloat32);
+  const auto t = torch::randn({1, 3});
+  const auto src = torch::randn({1, 3, 40});
+  const auto tgt = torch::bmm(R, src) + t.unsqueeze(2);
+  const RigidTransforms T{R, t};
+  const auto kp = torch::arange(10, torch::kInt64).unsqueeze(0);
+  EXPECT_NEAR(neighborhoodLoss(src, tgt, tgt, T, kp, 5).item<double>(), 0.0, 1e-4);
+  const RigidTransforms I = identityTransforms(1, src.options());
+  EXPECT_GT(neighborhoodLoss(src, tgt, tgt, I, kp, 5).item<double>(), 0.1);
+}
+
+TEST(Losses, SpatialConsistencyIsMinusLogOfRowMax) {
+  auto P = torch::tensor({{0.7, 0.2, 0.1}, {0.1, 0.1, 0.8}}, torch::kFloat64).unsqueeze(0);
+  const auto kp = torch::tensor({0, 1}, torch::kInt64).unsqueeze(0);
+  const double expected = -(std::log(0.7) + std::log(0.8)) / 2.0;
+  EXPECT_NEAR(spatialConsistencyLoss(P.log(), kp).item<double>(), expected, 1e-12);
+}
