@@ -253,6 +253,25 @@ TEST(PointCloudIo, TruncatedBinaryBodies) {
   }
 }
 
+TEST(PointCloudIo, CorruptCountsFailWithoutHugeAllocations) {
+  // Counts far beyond what the file holds must give a FormatError, not an allocation failure.
+  expectFormatError(
+      [] {
+        io::parsePlyPointCloud(
+            "ply\nformat binary_little_endian 1.0\nelement vertex 999999999999\nproperty float x\n"
+            "property float y\nproperty float z\nend_header\n0123456789ab",
+            "big.ply");
+      },
+      {"big.ply:7", "more data than the file holds"});
+  const std::string head = "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 999999999999\nHEIGHT 1\n";
+  expectFormatError([&] { io::parsePcd(head + "DATA binary\n0123456789ab", "big_b.pcd"); },
+                    {"big_b.pcd", "truncated"});
+  expectFormatError([&] { io::parsePcd(head + "DATA ascii\n1 2 3\n", "big_a.pcd"); },
+                    {"big_a.pcd", "after 1 of 999999999999 points"});
+  expectFormatError([] { io::parseOffPointCloud("OFF\n999999999999 0 0\n1 2 3\n", "big.off"); },
+                    {"big.off", "after 1 of 999999999999 vertices"});
+}
+
 TEST(PointCloudIo, OffPointSetWithColours) {
   const auto r = io::parseOffPointCloud(
       "COFF\n3 0 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n0 1 0 0 0 255 255\n", "p.off");

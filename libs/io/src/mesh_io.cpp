@@ -50,12 +50,15 @@ TriangleMesh parseOff(std::string_view text, const std::string& file) {
   const detail::OffHeader h = detail::parseOffHeader(cur, file);
   const long long nv = static_cast<long long>(h.num_vertices);
   const long long nf = static_cast<long long>(h.num_faces);
-  mesh.vertices.resize(h.num_vertices);
+  mesh.vertices.reserve(detail::offLinesCapacity(cur, h.num_vertices, 6));
   Color3u8 color;
   bool has_color = false;
-  for (std::size_t v = 0; v < h.num_vertices; ++v)
-    detail::parseOffVertex(cur, h, v, file, tok, mesh.vertices[v], color, has_color);
-  mesh.faces.reserve(static_cast<std::size_t>(nf));
+  Eigen::Vector3f p;
+  for (std::size_t v = 0; v < h.num_vertices; ++v) {
+    detail::parseOffVertex(cur, h, v, file, tok, p, color, has_color);
+    mesh.vertices.push_back(p);
+  }
+  mesh.faces.reserve(detail::offLinesCapacity(cur, h.num_faces, 8));
   std::vector<int> corners;
   for (long long f = 0; f < nf; ++f) {
     if (!detail::nextOffLine(cur, line))

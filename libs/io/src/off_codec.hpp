@@ -25,8 +25,17 @@ struct OffHeader {
 /// Next line with its comment removed that is not blank; false at the end of the text.
 bool nextOffLine(LineCursor& cur, std::string_view& line);
 
-/// Reads the keyword and the counts; throws FormatError(file, line, ...) when malformed.
+/// Reads the keyword and the counts; throws FormatError(file, line, ...) when malformed. The counts
+/// are not trusted for allocation: callers reserve at most offLinesCapacity() elements.
 OffHeader parseOffHeader(LineCursor& cur, const std::string& file);
+
+/// How many more lines of at least `min_chars` characters the rest of the text can hold: an upper
+/// bound for reserving, so that a corrupt count cannot trigger a huge allocation.
+inline std::size_t offLinesCapacity(const LineCursor& cur, std::size_t count,
+                                    std::size_t min_chars) {
+  const std::size_t cap = cur.remaining() / min_chars + 1;
+  return count < cap ? count : cap;
+}
 
 /// Reads the line of vertex `v` (0-based). `color` is set when the header has the 'C' prefix and
 /// the line carries a colour (integers 0-255 or floats 0-1); `has_color` tells whether it did.

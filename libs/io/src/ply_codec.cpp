@@ -114,6 +114,24 @@ PlyHeader parsePlyHeader(const std::string& file, std::string_view data) {
       const std::size_t nl = data.find('\n', static_cast<std::size_t>(line.data() - data.data()));
       h.body_offset = nl == std::string_view::npos ? data.size() : nl + 1;
       h.body_first_line = ln + 1;
+      // The counts must fit in the body (at least one byte per binary value, two characters per
+      // ascii value) before anyone allocates for them: a corrupt count fails here, cleanly.
+      const double body = static_cast<double>(data.size() - h.body_offset);
+      double need = 0.0;
+      for (const auto& e : h.elements) {
+        double per = 0.0;
+        for (const auto& p : e.properties)
+          per += h.encoding == PlyEncoding::Ascii
+                     ? 2.0
+                     : static_cast<double>(plyTypeSize(p.is_list ? p.count_type : p.type));
+        need += per * static_cast<double>(e.count);
+      }
+      if (h.encoding == PlyEncoding::Ascii) need -= 1.0;  // the last value may end the file
+      if (need > body)
+        throw FormatError(file, ln,
+                          "the header declares more data than the file holds (" +
+                              std::to_string(static_cast<unsigned long long>(body)) +
+                              " bytes after the header): truncated file or corrupt counts");
       return h;
     }
     if (kw == "format") {

@@ -463,29 +463,32 @@ PointCloudReadResult parsePcd(std::string_view data, const std::string& file) {
                           " differs from WIDTH × HEIGHT = " + std::to_string(width * height));
   }
   const auto n = static_cast<std::size_t>(points);
-  auto& cloud = r.cloud;
-  cloud.points.resize(n);
-  if (ii >= 0) cloud.intensity.resize(n);
-  if (irgb >= 0) cloud.colors.resize(n);
-  const auto F = [&fields](int i) -> const PcdField& {
-    return fields[static_cast<std::size_t>(i)];
-  };
-
   if (data_kind == "binary_compressed")
     throw FormatError(
         file, data_line,
         "DATA binary_compressed is not supported (save the cloud as binary or ascii)");
+  auto& cloud = r.cloud;
+  const auto F = [&fields](int i) -> const PcdField& {
+    return fields[static_cast<std::size_t>(i)];
+  };
+  const auto allocate = [&] {
+    cloud.points.resize(n);
+    if (ii >= 0) cloud.intensity.resize(n);
+    if (irgb >= 0) cloud.colors.resize(n);
+  };
   if (data_kind == "binary") {
     // The body starts after the '\n' that ends the DATA line (PCL writes '\n' line ends).
     const std::size_t nl = data.find('\n', data_line_start);
     const std::size_t body = nl == std::string_view::npos ? data.size() : nl + 1;
-    const std::size_t need = n * record;
-    if (data.size() < body || data.size() - body < need)
+    const double need = static_cast<double>(n) * static_cast<double>(record);
+    if (need > static_cast<double>(data.size() - std::min(body, data.size())))
       throw FormatError(file, 0,
                         "binary PCD data is truncated: " + std::to_string(n) + " points of " +
-                            std::to_string(record) + " bytes need " + std::to_string(need) +
+                            std::to_string(record) + " bytes need " +
+                            std::to_string(static_cast<unsigned long long>(need)) +
                             " bytes, the file has " +
                             std::to_string(data.size() - std::min(body, data.size())));
+    allocate();
     const auto* base = reinterpret_cast<const unsigned char*>(data.data()) + body;
     for (std::size_t i = 0; i < n; ++i) {
       const unsigned char* rec = base + i * record;
@@ -497,6 +500,13 @@ PointCloudReadResult parsePcd(std::string_view data, const std::string& file) {
       if (irgb >= 0) cloud.colors[i] = unpackRgb(pcdBinaryBits32(rec + F(irgb).offset));
     }
   } else if (data_kind == "ascii") {
+    // Grown point by point (reserving at most what the rest of the file can hold: two
+    // characters per value), so a corrupt POINTS count cannot trigger a huge allocation.
+    const std::size_t cap = std::min<std::size_t>(
+        n, (data.size() - cur.offset()) / std::max<std::size_t>(1, 2 * ntokens) + 1);
+    cloud.points.reserve(cap);
+    if (ii >= 0) cloud.intensity.reserve(cap);
+    if (irgb >= 0) cloud.colors.reserve(cap);
     std::size_t i = 0;
     while (i < n) {
       if (!cur.next(line))
@@ -514,14 +524,14 @@ PointCloudReadResult parsePcd(std::string_view data, const std::string& file) {
         return static_cast<float>(
             detail::parseDouble(tok[F(f).first_token], file, ln, "field '" + F(f).name + "'"));
       };
-      cloud.points[i] = Vector3f(val(ix), val(iy), val(iz));
-      if (ii >= 0) cloud.intensity[i] = val(ii);
+      cloud.points.emplace_back(val(ix), val(iy), val(iz));
+      if (ii >= 0) cloud.intensity.push_back(val(ii));
       if (irgb >= 0) {
         std::uint32_t bits = 0;
         const std::string_view t = tok[F(irgb).first_token];
         if (!pcdAsciiBits32(t, F(irgb).type, bits))
           throw FormatError(file, ln, "packed colour '" + std::string(t) + "' is not a number");
-        cloud.colors[i] = unpackRgb(bits);
+        cloud.colors.push_back(unpackRgb(bits));
       }
       ++i;
     }
@@ -603,13 +613,16 @@ PointCloudReadResult parseOffPointCloud(std::string_view data, const std::string
   const detail::OffHeader h = detail::parseOffHeader(cur, file);
   std::vector<std::string_view> tok;
   auto& cloud = r.cloud;
-  cloud.points.resize(h.num_vertices);
-  if (h.colors) cloud.colors.resize(h.num_vertices);
+  const std::size_t cap = detail::offLinesCapacity(cur, h.num_vertices, 6);
+  cloud.points.reserve(cap);
+  if (h.colors) cloud.colors.reserve(cap);
+  Eigen::Vector3f p;
   Color3u8 c = Color3u8::Zero();
   bool has_c = false, all_c = true;
   for (std::size_t v = 0; v < h.num_vertices; ++v) {
-    detail::parseOffVertex(cur, h, v, file, tok, cloud.points[v], c, has_c);
-    if (h.colors) cloud.colors[v] = has_c ? c : Color3u8::Zero();
+    detail::parseOffVertex(cur, h, v, file, tok, p, c, has_c);
+    cloud.points.push_back(p);
+    if (h.colors) cloud.colors.push_back(has_c ? c : Color3u8::Zero());
     all_c = all_c && has_c;
   }
   if (h.colors && !all_c) cloud.colors.clear();  // a COFF without colours on every vertex

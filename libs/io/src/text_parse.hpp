@@ -33,6 +33,8 @@ class LineCursor {
   std::size_t lineNumber() const noexcept { return next_line_ - 1; }
   /// Byte offset just past the end-of-line of the line last returned.
   std::size_t offset() const noexcept { return pos_; }
+  /// Bytes after offset().
+  std::size_t remaining() const noexcept { return text_.size() - pos_; }
 
  private:
   std::string_view text_;
