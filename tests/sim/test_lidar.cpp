@@ -71,6 +71,23 @@ TEST(LidarLayout, Hdl64RingAngles) {
   EXPECT_NEAR(ev.back() * kRadToDeg, -15.0, 1e-9);
 }
 
+TEST(LidarLayout, ColumnsSpanTheFullCircleClockwiseFromBehind) {
+  LidarParams p;
+  p.noise = false;
+  const LidarSimulator lidar(p);
+  const std::size_t n = p.columns();
+  const double step = 2.0 * M_PI / static_cast<double>(n);
+  EXPECT_NEAR(lidar.azimuth(0), M_PI - 0.5 * step, 1e-12);
+  EXPECT_NEAR(lidar.azimuth(n / 2), M_PI - (n / 2 + 0.5) * step, 1e-12);
+  EXPECT_NEAR(lidar.azimuth(n - 1), -M_PI + 0.5 * step, 1e-12);
+  for (std::size_t c = 0; c < n; c += 97) {
+    const Eigen::Vector3f d = lidar.direction(5, c);
+    EXPECT_NEAR(std::atan2(d.y(), d.x()), lidar.azimuth(c), 1e-5) << "column " << c;
+    EXPECT_NEAR(d.norm(), 1.0f, 1e-6f);
+    EXPECT_NEAR(std::asin(d.z()), p.ringElevations()[5], 1e-6);
+  }
+}
+
 TEST(LidarLayout, ZeroRaysAndBadKeysAreConfigErrorsNamingTheKey) {
   const auto load = [](const std::string& yaml) {
     return LidarParams::load(ConfigNode::fromString(yaml, "sensor.yaml"));
@@ -104,6 +121,9 @@ TEST(Lidar, NoiseFreePointsLieExactlyOnTheWalls) {
   ASSERT_EQ(s.rays, p.raysPerSweep());
   ASSERT_EQ(s.cloud.size(), s.rays);  // closed room, no noise: every ray returns
   ASSERT_EQ(s.ring.size(), s.cloud.size());
+  int quadrant[4] = {0, 0, 0, 0};  // the sweep covers all directions evenly
+  for (const auto& q : s.cloud.points) ++quadrant[(q.x() > 0 ? 1 : 0) + (q.y() > 0 ? 2 : 0)];
+  for (int k = 0; k < 4; ++k) EXPECT_NEAR(quadrant[k], s.cloud.size() / 4.0, s.cloud.size() / 50.0);
   for (std::size_t i = 0; i < s.cloud.size(); ++i) {
     const Eigen::Vector3d pw = T * s.cloud.points[i].cast<double>();
     EXPECT_NEAR(pw.cwiseAbs().maxCoeff(), kHalf, 2e-4) << "point " << i;

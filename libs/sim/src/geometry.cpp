@@ -15,7 +15,7 @@ namespace {
 // often return nothing, `pass_through` surfaces the beam partly penetrates (foliage).
 const MaterialProperties kMaterials[] = {
     {"default", 0.40f, 0.00f, 0.00f, {170, 170, 170}},
-    {"road", 0.12f, 0.00f, 0.00f, {90, 90, 95}},
+    {"road", 0.20f, 0.00f, 0.00f, {90, 90, 95}},
     {"sidewalk", 0.28f, 0.00f, 0.00f, {175, 170, 160}},
     {"kerb", 0.35f, 0.00f, 0.00f, {200, 200, 195}},
     {"grass", 0.30f, 0.00f, 0.00f, {110, 150, 80}},
@@ -42,6 +42,10 @@ static_assert(sizeof(kMaterials) / sizeof(kMaterials[0]) ==
                   static_cast<std::size_t>(Material::Count),
               "one entry per Material");
 }  // namespace
+
+// Corner index bits of a box: x = 1, y = 2, z = 4. Quads counter-clockwise seen from outside.
+static const int kBoxQuads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
+                                    {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
 
 const MaterialProperties& materialProperties(Material m) {
   const auto i = static_cast<std::size_t>(m);
@@ -110,10 +114,18 @@ void MeshBuilder::box(const Eigen::Isometry3d& T, const Eigen::Vector3d& size, M
                             (i & 4) ? h.z() : -h.z());
     v[i] = vertex(T * p);
   }
-  // Corner index bits: x = 1, y = 2, z = 4. Quads listed counter-clockwise seen from outside.
-  static const int kQuads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
-                                   {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-  for (const auto& q : kQuads) {
+  for (const auto& q : kBoxQuads) {
+    out_.mesh.faces.emplace_back(v[q[0]], v[q[1]], v[q[2]]);
+    out_.mesh.faces.emplace_back(v[q[0]], v[q[2]], v[q[3]]);
+    out_.materials.push_back(m);
+    out_.materials.push_back(m);
+  }
+}
+
+void MeshBuilder::hexahedron(const Eigen::Vector3d (&c)[8], Material m) {
+  int v[8];
+  for (int i = 0; i < 8; ++i) v[i] = vertex(c[i]);
+  for (const auto& q : kBoxQuads) {
     out_.mesh.faces.emplace_back(v[q[0]], v[q[1]], v[q[2]]);
     out_.mesh.faces.emplace_back(v[q[0]], v[q[2]], v[q[3]]);
     out_.materials.push_back(m);

@@ -138,13 +138,12 @@ LidarSimulator::LidarSimulator(LidarParams params) : params_(std::move(params)) 
 
 double LidarSimulator::azimuth(std::size_t column) const {
   // Clockwise from behind: +180° at the first column, 0° (forward) at the middle.
-  const double step =
-      2.0 * M_PI / static_cast<double>(cos_az_.empty() ? params_.columns() : cos_az_.size());
+  const double step = 2.0 * M_PI / static_cast<double>(params_.columns());
   return M_PI - (static_cast<double>(column) + 0.5) * step;
 }
 
 double LidarSimulator::columnTimeOffset(std::size_t column) const {
-  const double n = static_cast<double>(cos_az_.size());
+  const double n = static_cast<double>(params_.columns());
   return ((static_cast<double>(column) + 0.5) / n - 0.5) * params_.sweepPeriod();
 }
 
@@ -163,7 +162,7 @@ namespace {
 struct ChunkOut {
   std::vector<Eigen::Vector3f> points;
   std::vector<float> intensity;
-  std::vector<std::uint16_t> ring;
+  std::vector<std::uint16_t> ring, column;
   std::vector<float> time;
 };
 
@@ -193,6 +192,7 @@ LidarSweep LidarSimulator::simulate(const RaycastScene& scene, const PoseAtTime&
     o.points.reserve((c1 - c0) * nr);
     o.intensity.reserve((c1 - c0) * nr);
     o.ring.reserve((c1 - c0) * nr);
+    o.column.reserve((c1 - c0) * nr);
     o.time.reserve((c1 - c0) * nr);
     RayPacket16 pk;
     for (std::size_t c = c0; c < c1; ++c) {
@@ -263,19 +263,23 @@ LidarSweep LidarSimulator::simulate(const RaycastScene& scene, const PoseAtTime&
             }
             if (P.dropout_probability > 0.0 && rng.uniform() < P.dropout_probability) continue;
             if (P.material_effects && mp.dropout > 0.f && rng.uniformf() < mp.dropout) continue;
-            // Received power ∝ ρ cosθ / r²; below the 10 %-at-R₁₀ threshold nothing is detected.
-            if (r10 > 0.0 && mp.reflectivity * cosi * (r10 / range) * (r10 / range) < 0.1) continue;
+            // Received power ∝ ρ (0.3 + 0.7 cosθ) / r²; below the 10 %-at-R₁₀ threshold
+            // nothing is detected.
+            if (r10 > 0.0 &&
+                mp.reflectivity * (0.3f + 0.7f * cosi) * (r10 / range) * (r10 / range) < 0.1)
+              continue;
           }
           float meas = range;
           if (noisy && sigma > 0.f) meas += sigma * static_cast<float>(rng.normal());
           if (meas < P.min_range || meas > P.max_range) continue;
-          float inten = mp.reflectivity * (0.4f + 0.6f * cosi);
+          float inten = mp.reflectivity * (0.5f + 0.5f * cosi) * 1.8f * std::exp(-range / 40.f);
           if (noisy && P.intensity_noise_sigma > 0.0)
             inten += static_cast<float>(P.intensity_noise_sigma * rng.normal());
           inten = std::clamp(inten, 0.f, 1.f);
           o.points.push_back(direction(r0 + i, c) * meas);
           o.intensity.push_back(inten);
           o.ring.push_back(static_cast<std::uint16_t>(r0 + i));
+          o.column.push_back(static_cast<std::uint16_t>(c));
           o.time.push_back(dt);
         }
       }
@@ -289,12 +293,14 @@ LidarSweep LidarSimulator::simulate(const RaycastScene& scene, const PoseAtTime&
   sweep.cloud.reserve(total);
   sweep.cloud.intensity.reserve(total);
   sweep.ring.reserve(total);
+  sweep.column.reserve(total);
   sweep.time_offset.reserve(total);
   for (const auto& o : out) {
     sweep.cloud.points.insert(sweep.cloud.points.end(), o.points.begin(), o.points.end());
     sweep.cloud.intensity.insert(sweep.cloud.intensity.end(), o.intensity.begin(),
                                  o.intensity.end());
     sweep.ring.insert(sweep.ring.end(), o.ring.begin(), o.ring.end());
+    sweep.column.insert(sweep.column.end(), o.column.begin(), o.column.end());
     sweep.time_offset.insert(sweep.time_offset.end(), o.time.begin(), o.time.end());
   }
   sweep.cloud.timestamp = t;

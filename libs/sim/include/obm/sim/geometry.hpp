@@ -87,6 +87,9 @@ class MeshBuilder {
             const Eigen::Vector3d& d, Material m);
   /// Closed box of the given full size, centred at the origin of `T`.
   void box(const Eigen::Isometry3d& T, const Eigen::Vector3d& size, Material m);
+  /// Closed hexahedron from 8 corners indexed like a box's (bit 0: +x, bit 1: +y, bit 2: +z),
+  /// e.g. a kerb stone whose top follows the terrain.
+  void hexahedron(const Eigen::Vector3d (&corners)[8], Material m);
   /// Axis-aligned closed box between two corners.
   void aabb(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, Material m);
   /// Closed prism: a convex or simple counter-clockwise polygon in the x-y plane of `T`,

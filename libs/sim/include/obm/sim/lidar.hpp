@@ -39,12 +39,16 @@ struct LidarParams {
   bool noise = true;                  ///< master switch for everything random below
   double range_noise_sigma = 0.02;    ///< [m] Gaussian range noise (HDL-64E: < 2 cm, 1σ)
   double dropout_probability = 0.01;  ///< random loss of a return
-  double grazing_start_deg = 75.0;    ///< [deg] incidence where grazing loss starts
-  double grazing_full_deg = 88.0;     ///< [deg] incidence where every return is lost
+  double grazing_start_deg = 85.0;    ///< [deg] incidence where grazing loss starts
+  double grazing_full_deg = 89.5;     ///< [deg] incidence where every return is lost
   /// [m] range at which a 10 %-reflective surface at normal incidence is still detected
-  /// (HDL-64E datasheet: 50 m); a return is kept when ρ·cosθ·(R₁₀/r)² ≥ 0.1. 0 disables.
+  /// (HDL-64E datasheet: 50 m for pavement); a return is kept when ρ·(0.3 + 0.7·cosθ)·(R₁₀/r)²
+  /// ≥ 0.1 — surfaces are not purely Lambertian, so grazing pavement is still seen to ~40 m, as
+  /// in KITTI's scans. 0 disables.
   double range_at_10pct = 50.0;
-  double intensity_noise_sigma = 0.02;  ///< Gaussian noise on the [0, 1] intensity
+  /// Intensity in [0, 1]: ρ·(0.5 + 0.5·cosθ)·1.8·exp(−r / 40 m) plus Gaussian noise — near
+  /// asphalt ≈ 0.2, far asphalt ≈ 0.1, as in KITTI's reflectance channel.
+  double intensity_noise_sigma = 0.02;
   bool material_effects = true;  ///< glass/car windows drop returns, foliage is partly penetrated
 
   /// Points are measured from the pose at each column's firing time (raw, like KITTI's .bin
@@ -74,9 +78,10 @@ struct LidarSweep {
   /// Points [m] in the sensor frame, intensity in [0, 1]; frame_id "lidar", timestamp = sweep
   /// time. With motion distortion, each point is in the sensor frame at its own firing time.
   PointCloud cloud;
-  std::vector<std::uint16_t> ring;  ///< ring index per point (0 = highest)
-  std::vector<float> time_offset;   ///< [s] firing time minus the sweep's time stamp, per point
-  std::size_t rays = 0;             ///< rays cast (including misses and drop-outs)
+  std::vector<std::uint16_t> ring;    ///< ring index per point (0 = highest)
+  std::vector<std::uint16_t> column;  ///< azimuth column per point (0 = first fired, behind)
+  std::vector<float> time_offset;     ///< [s] firing time minus the sweep's time stamp, per point
+  std::size_t rays = 0;               ///< rays cast (including misses and drop-outs)
 };
 
 /// Pose of the sensor in the world at a time, T_world_sensor(t).
