@@ -11,7 +11,7 @@ ObmNetConfig ObmNetConfig::load(const ConfigNode& node) {
   ObmNetConfig c;
   node.checkKeys({"emb_dims", "dim", "k1", "k2", "n_keypoints", "n_samples", "n_iters", "nn_margin",
                   "loss_margin", "beta", "tau_min", "use_overlap_sampling", "use_bias_prediction",
-                  "use_nmm", "seed"});
+                  "use_nmm", "nmm_score_grad", "seed"});
   node.get("emb_dims", c.emb_dims);
   node.get("dim", c.dim);
   node.get("k1", c.k1);
@@ -26,6 +26,7 @@ ObmNetConfig ObmNetConfig::load(const ConfigNode& node) {
   node.get("use_overlap_sampling", c.use_overlap_sampling);
   node.get("use_bias_prediction", c.use_bias_prediction);
   node.get("use_nmm", c.use_nmm);
+  node.get("nmm_score_grad", c.nmm_score_grad);
   node.get("seed", c.seed);
   c.validate(node.where());
   return c;
@@ -69,6 +70,7 @@ std::string ObmNetConfig::toYaml() const {
   out << YAML::Key << "use_overlap_sampling" << YAML::Value << use_overlap_sampling;
   out << YAML::Key << "use_bias_prediction" << YAML::Value << use_bias_prediction;
   out << YAML::Key << "use_nmm" << YAML::Value << use_nmm;
+  out << YAML::Key << "nmm_score_grad" << YAML::Value << nmm_score_grad;
   out << YAML::Key << "seed" << YAML::Value << seed;
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";

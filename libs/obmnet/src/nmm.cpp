@@ -15,25 +15,25 @@ void checkShapes(const torch::Tensor& M, const torch::Tensor& src_idx,
              "NMM: tgt_idx must be B×M×k for a B×N×M matching map");
 }
 
-/// Step 5, second and third bullets, from the neighbourhood sums A (Σ M′) and d (Σ M′²).
-/// d_ij is clamped from below (1e-20) so 1/d_ij stays finite where the softmax underflows: such
-/// columns then dominate D's normalisation exactly as an infinitesimal d would.
-torch::Tensor enhancedFromSums(const torch::Tensor& M, const torch::Tensor& A,
-                               const torch::Tensor& d, int64_t pairs, const NmmParams& p) {
+/// Step 5, second and third bullets, from the neighbourhood sums A (Σ M′) and d (Σ M′²):
+/// S_ij = D_ij·A_ij / K. d_ij is clamped from below (1e-20) so 1/d_ij stays finite where the
+/// softmax underflows: such columns then dominate D's normalisation exactly as an infinitesimal d
+/// would.
+torch::Tensor scoreFromSums(const torch::Tensor& A, const torch::Tensor& d, int64_t pairs,
+                            const NmmParams& p) {
   // D only normalises the score across the row; its gradient through 1/d is unbounded where the
   // softmax underflows (d → 0), so D is treated as a constant weight (no gradient) and the
-  // learning signal flows through A and M.
+  // learning signal flows through A.
   const auto inv = 1.0 / d.detach().clamp_min(1e-20) + p.beta;
   const auto D = inv / inv.sum(2, /*keepdim=*/true);
   // S_ij = (D_ij / K) Σ_{p∈N(p_i)} Σ_{q∈N(q_j)} M′: K = k_s·k_t neighbour pairs (a mean).
-  const auto S = D * A / static_cast<double>(pairs);
-  return torch::exp(p.gamma - S) * M;
+  return D * A / static_cast<double>(pairs);
 }
 
 }  // namespace
 
-torch::Tensor nmmEnhancedCost(const torch::Tensor& M, const torch::Tensor& src_idx,
-                              const torch::Tensor& tgt_idx, const NmmParams& params) {
+torch::Tensor nmmScore(const torch::Tensor& M, const torch::Tensor& src_idx,
+                       const torch::Tensor& tgt_idx, const NmmParams& params) {
   checkShapes(M, src_idx, tgt_idx);
   const int64_t B = M.size(0), N = M.size(1), Mt = M.size(2);
   const int64_t ks = src_idx.size(2), kt = tgt_idx.size(2);
@@ -55,7 +55,12 @@ torch::Tensor nmmEnhancedCost(const torch::Tensor& M, const torch::Tensor& src_i
     A = A + rowA.gather(2, index);
     d = d + rowD.gather(2, index);
   }
-  return enhancedFromSums(M, A, d, ks * kt, params);
+  return scoreFromSums(A, d, ks * kt, params);
+}
+
+torch::Tensor nmmEnhancedCost(const torch::Tensor& M, const torch::Tensor& src_idx,
+                              const torch::Tensor& tgt_idx, const NmmParams& params) {
+  return torch::exp(params.gamma - nmmScore(M, src_idx, tgt_idx, params)) * M;
 }
 
 torch::Tensor nmm(const torch::Tensor& M, const torch::Tensor& src_idx,

@@ -42,6 +42,9 @@ struct ObmNetConfig {
   bool use_bias_prediction = true;
   /// Neighbour map matching (NMM) refinement of the matching map; off = M^r = row-softmax(−M).
   bool use_nmm = true;
+  /// Back-propagate through the NMM neighbourhood score S (memory and time heavy on a CPU); off =
+  /// S is a constant factor of M^e in the backward pass (the forward pass is the same).
+  bool nmm_score_grad = false;
   /// Seed of the Gumbel noise. Training draws a fresh stream from it; every forward pass in eval
   /// mode re-seeds, so registering the same pair twice gives the same result.
   std::uint64_t seed = 0;

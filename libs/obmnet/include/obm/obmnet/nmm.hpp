@@ -25,6 +25,11 @@ struct NmmParams {
 torch::Tensor nmmEnhancedCost(const torch::Tensor& M, const torch::Tensor& src_idx,
                               const torch::Tensor& tgt_idx, const NmmParams& params);
 
+/// The neighbourhood score S of step 5 alone (B×N×M), so that a caller can evaluate it without
+/// gradient: M^e = exp(γ − S) ⊙ M.
+torch::Tensor nmmScore(const torch::Tensor& M, const torch::Tensor& src_idx,
+                       const torch::Tensor& tgt_idx, const NmmParams& params);
+
 /// The refined matching map M^r = row-softmax(−M^e), B×N×M (rows sum to 1).
 torch::Tensor nmm(const torch::Tensor& M, const torch::Tensor& src_idx,
                   const torch::Tensor& tgt_idx, const NmmParams& params);
