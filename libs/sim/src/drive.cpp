@@ -168,6 +168,11 @@ Trajectory generateDrive(const UrbanSceneParams& S, const GeneratedScene& G, con
   for (std::size_t i = 1; i < n; ++i)
     t[i] = t[i - 1] + (s[i] - s[i - 1]) / std::max(0.1, 0.5 * (v[i] + v[i - 1]));
 
+  // Stretch the timing by less than one period so the last sample lands on the end point.
+  const double dt = 1.0 / P.rate_hz;
+  const double stretch = std::ceil(t.back() / dt - 1e-9) * dt / t.back();
+  for (double& x : t) x *= stretch;
+
   Rng rng(hashSeed(P.seed, 0xd21e));
   double ph[6];
   for (double& x : ph) x = rng.uniform(0, 2 * M_PI);
@@ -175,9 +180,10 @@ Trajectory generateDrive(const UrbanSceneParams& S, const GeneratedScene& G, con
 
   Trajectory traj;
   traj.source = "procedural drive";
-  const double dt = 1.0 / P.rate_hz;
   std::size_t i = 0;
-  for (double tk = 0.0; tk <= t.back() + 1e-9; tk += dt) {
+  const auto frames = static_cast<std::size_t>(std::llround(t.back() / dt)) + 1;
+  for (std::size_t f = 0; f < frames; ++f) {
+    const double tk = static_cast<double>(f) * dt;
     while (i + 1 < n && t[i + 1] < tk) ++i;
     const std::size_t j = std::min(i + 1, n - 1);
     const double a = t[j] > t[i] ? std::clamp((tk - t[i]) / (t[j] - t[i]), 0.0, 1.0) : 0.0;

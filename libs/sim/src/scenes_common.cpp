@@ -40,7 +40,9 @@ GeneratedScene loadMeshScene(const std::string& file, double scale,
   GeneratedScene g;
   g.mesh.append(m, Material::Default);
   g.mesh.mesh.name = m.name;
+  // A sensor may ride up to 5 m above the mesh's highest point (a flat floor has no height).
   g.bounds = g.mesh.bounds();
+  g.bounds.max().z() += 5.0;
   // Ground: the lowest vertex (a flat floor), good enough for pictures and walk heights.
   g.ground = HeightMap(g.bounds.min().x(), g.bounds.min().y(), 1.0, 2, 2, g.bounds.min().z());
   g.description = "mesh '" + file + "': " + std::to_string(m.faces.size()) + " triangles";

@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -24,6 +25,7 @@
 #include "obm/sim/preview.hpp"
 #include "obm/sim/random.hpp"
 #include "obm/sim/scene.hpp"
+#include "work_queue.hpp"
 
 #ifndef OBM_SIM_SOURCE_CONFIG_DIR
 #define OBM_SIM_SOURCE_CONFIG_DIR ""
@@ -353,7 +355,12 @@ void SequenceSimulator::prepare() {
   const auto& tc = cfg_.trajectory;
   Trajectory traj;
   if (tc.type == "kitti") {
-    if (!tc.calib_file.empty()) s.T_cam0_velo = io::readKittiCalib(tc.calib_file).T_cam0_velo;
+    if (!tc.calib_file.empty()) {
+      // KITTI's Tr is orthonormal to ~1e-7 only; projecting it onto SO(3) makes the camera ↔
+      // LiDAR conversions exact inverses of each other.
+      s.T_cam0_velo = io::readKittiCalib(tc.calib_file).T_cam0_velo;
+      s.T_cam0_velo.linear() = orthonormalize(s.T_cam0_velo.linear());
+    }
     traj = loadKittiTrajectory(tc.file, tc.times_file, s.T_cam0_velo, tc.max_poses);
   } else if (tc.type == "tum") {
     traj = loadTumTrajectory(tc.file, tc.max_poses).resampled(cfg_.sensor.rate());
@@ -494,6 +501,17 @@ SimSummary SequenceSimulator::run(const SimOptions& opt) {
   SimSummary sum;
   double t_sensor = 0.0, t_write = 0.0;
   const PoseAtTime pose = [&](double t) { return s.traj.interpolate(t); };
+  // Files are written by two background threads while the next frame is ray cast: one keeps
+  // the rawlog in order, the other writes the per-frame dataset files.
+  detail::WorkQueue rawlog_q(3), files_q(3);
+  std::atomic<long long> write_us{0};
+  auto timed = [&write_us](std::function<void()> f) {
+    return [f = std::move(f), &write_us] {
+      Timer tw;
+      f();
+      write_us += static_cast<long long>(1e6 * tw.seconds());
+    };
+  };
   for (std::size_t k = 0; k < n; ++k) {
     if (opt.cancel && opt.cancel->load())
       throw Cancelled("interrupted at frame " + std::to_string(k));
@@ -501,53 +519,76 @@ SimSummary SequenceSimulator::run(const SimOptions& opt) {
     const std::uint64_t seed = hashSeed(C.seed, 0x5e45, k);
     Timer tm;
     if (lidar) {
-      const LidarSweep sweep = C.sensor.lidar.motion_distortion
-                                   ? lsim->simulate(*s.rc, pose, t, seed)
-                                   : lsim->simulate(*s.rc, s.traj.poses[k], t, seed);
+      auto sweep = std::make_shared<const LidarSweep>(
+          C.sensor.lidar.motion_distortion ? lsim->simulate(*s.rc, pose, t, seed)
+                                           : lsim->simulate(*s.rc, s.traj.poses[k], t, seed));
       t_sensor += tm.seconds();
-      tm.reset();
-      sum.points += sweep.cloud.size();
-      if (C.output.dataset)
-        io::writeKittiVelodyne((T / "velodyne" / io::kittiScanFileName(k)).string(), sweep.cloud);
-      if (rawlog) rawlog->writePointCloud(sweep.cloud, Eigen::Isometry3d::Identity(), t, label);
-      if (C.output.pictures && k == pic_frame)
-        writePng((T / "preview_frame.png").string(),
-                 renderSweep(sweep, C.sensor.lidar.ringElevations().size(),
-                             C.sensor.lidar.columns(), 50.0, 800));
+      sum.points += sweep->cloud.size();
+      if (C.output.dataset) {
+        const std::string path = (T / "velodyne" / io::kittiScanFileName(k)).string();
+        files_q.push(timed([sweep, path] { io::writeKittiVelodyne(path, sweep->cloud); }));
+      }
+      if (rawlog) {
+        io::RawlogWriter* rw = rawlog.get();
+        rawlog_q.push(timed([sweep, rw, t, label] {
+          rw->writePointCloud(sweep->cloud, Eigen::Isometry3d::Identity(), t, label);
+        }));
+      }
+      if (C.output.pictures && k == pic_frame) {
+        const std::string path = (T / "preview_frame.png").string();
+        const std::size_t rings = C.sensor.lidar.ringElevations().size(),
+                          cols = C.sensor.lidar.columns();
+        files_q.push(timed([sweep, path, rings, cols] {
+          writePng(path, renderSweep(*sweep, rings, cols, 50.0, 800));
+        }));
+      }
     } else {
-      const DepthFrame f = csim->render(*s.rc, s.traj.poses[k], t, seed);
+      auto f = std::make_shared<const DepthFrame>(csim->render(*s.rc, s.traj.poses[k], t, seed));
       t_sensor += tm.seconds();
-      tm.reset();
-      io::DepthImage d;
-      d.width = f.width;
-      d.height = f.height;
-      d.data.resize(f.depth.size());
-      for (std::size_t i = 0; i < f.depth.size(); ++i) {
-        const double v = std::round(f.depth[i] * C.output.depth_scale);
-        d.data[i] = static_cast<std::uint16_t>(std::clamp(v, 0.0, 65535.0));
-        if (f.depth[i] > 0.f) ++sum.points;
+      auto d = std::make_shared<io::DepthImage>();
+      d->width = f->width;
+      d->height = f->height;
+      d->data.resize(f->depth.size());
+      for (std::size_t i = 0; i < f->depth.size(); ++i) {
+        const double v = std::round(f->depth[i] * C.output.depth_scale);
+        d->data[i] = static_cast<std::uint16_t>(std::clamp(v, 0.0, 65535.0));
+        if (f->depth[i] > 0.f) ++sum.points;
       }
       const std::string name = stampName(t) + ".png";
       if (C.output.dataset) {
-        io::writeDepthPng((T / "depth" / name).string(), d);
+        const std::string dpath = (T / "depth" / name).string();
+        files_q.push(timed([d, dpath] { io::writeDepthPng(dpath, *d); }));
         depth_list.push_back({t, "depth/" + name});
-        if (!f.rgb.empty()) {
-          io::ColorImage c;
-          c.width = f.width;
-          c.height = f.height;
-          c.rgb = f.rgb;
-          io::writeColorPng((T / "rgb" / name).string(), c);
+        if (!f->rgb.empty()) {
+          const std::string cpath = (T / "rgb" / name).string();
+          rawlog_q.push(timed([f, cpath] {  // balance the two queues: colour goes with the rawlog
+            io::ColorImage c;
+            c.width = f->width;
+            c.height = f->height;
+            c.rgb = f->rgb;
+            io::writeColorPng(cpath, c);
+          }));
           rgb_list.push_back({t, "rgb/" + name});
         }
       }
-      if (rawlog)
-        rawlog->writeDepth(d, C.output.depth_scale, K, Eigen::Isometry3d::Identity(), t, label);
-      if (C.output.pictures && k == pic_frame)
-        writePng((T / "preview_frame.png").string(), renderDepthFrame(f, C.sensor.rgbd.max_depth));
+      if (rawlog) {
+        io::RawlogWriter* rw = rawlog.get();
+        const double scale = C.output.depth_scale;
+        rawlog_q.push(timed([d, rw, scale, K, t, label] {
+          rw->writeDepth(*d, scale, K, Eigen::Isometry3d::Identity(), t, label);
+        }));
+      }
+      if (C.output.pictures && k == pic_frame) {
+        const std::string path = (T / "preview_frame.png").string();
+        const double maxd = C.sensor.rgbd.max_depth;
+        files_q.push(timed([f, path, maxd] { writePng(path, renderDepthFrame(*f, maxd)); }));
+      }
     }
-    t_write += tm.seconds();
     bar.update(k + 1);
   }
+  rawlog_q.finish();
+  files_q.finish();
+  t_write = 1e-6 * static_cast<double>(write_us.load());
   bar.finish();
   if (opt.cancel && opt.cancel->load()) throw Cancelled("interrupted");
 

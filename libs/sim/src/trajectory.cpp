@@ -100,6 +100,8 @@ KittiCalibration KittiCalibration::kitti00() {
                                      -9.999413164504e-01, -5.403984729748e-02, 9.999738645903e-01,
                                      4.859485810390e-04,  -7.206933692422e-03, -2.921968648686e-01};
   c.T_cam0_velo = fromRowMajor3x4(tr);
+  // Orthonormal to 1e-16 (the file's is to ~1e-7), so camera ↔ LiDAR conversions are exact.
+  c.T_cam0_velo.linear() = orthonormalize(c.T_cam0_velo.linear());
   // Rows of P0..P3 (rectified projections of the grey and colour stereo pairs).
   const double P[4][12] = {
       {718.856, 0, 607.1928, 0, 0, 718.856, 185.2157, 0, 0, 0, 1, 0},

@@ -193,7 +193,8 @@ Trajectory generateWalk(const IndoorSceneParams& scene, const GeneratedScene& ge
 // Mesh files
 
 /// Loads a scene from an OFF / PLY / OBJ file (all faces Material::Default), applying `scale`
-/// and then T_world_mesh. Bounds are the mesh's. Throws IoError / FormatError naming the file.
+/// and then T_world_mesh. Bounds: the mesh's box, 5 m higher. Throws IoError / FormatError naming
+/// the file.
 GeneratedScene loadMeshScene(const std::string& file, double scale = 1.0,
                              const Eigen::Isometry3d& T_world_mesh = Eigen::Isometry3d::Identity());
 

@@ -52,7 +52,7 @@ struct Trajectory {
 struct KittiCalibration {
   Eigen::Isometry3d T_cam0_velo = Eigen::Isometry3d::Identity();  ///< Tr
   double P[4][12] = {};                                           ///< rows of P0..P3
-  /// KITTI 00's values.
+  /// KITTI 00's values (Tr projected onto SO(3), a change below 1e-7).
   static KittiCalibration kitti00();
 };
 
