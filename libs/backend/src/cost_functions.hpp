@@ -40,17 +40,18 @@ inline Eigen::Matrix<double, 4, 3> quaternionPlusJacobian(const Eigen::Quaternio
   return P;
 }
 
-/// g2o EdgeSE3 residual with analytic Jacobians. Parameter blocks: t_a (3), q_a (4, Eigen order
-/// x y z w), t_b (3), q_b (4).
-class EdgeSe3Cost final : public ceres::SizedCostFunction<6, 3, 4, 3, 4> {
+/// g2o EdgeSE3 residual with analytic Jacobians. Parameter blocks: one per node, (t, q) with
+/// t = x y z and q in Eigen order x y z w, on the manifold R³ × EigenQuaternionManifold (one 6-dof
+/// block per node keeps the block-sparse normal equations as small as the graph).
+class EdgeSe3Cost final : public ceres::SizedCostFunction<6, 7, 7> {
  public:
   EdgeSe3Cost(const Eigen::Vector3d& t_z, const Eigen::Quaterniond& q_z,
               const Mat6& sqrt_information)
       : t_z_(t_z), q_z_inv_(q_z.normalized().conjugate()), W_(sqrt_information) {}
 
   bool Evaluate(double const* const* p, double* residuals, double** jacobians) const override {
-    const Eigen::Map<const Eigen::Vector3d> t_a(p[0]), t_b(p[2]);
-    const Eigen::Map<const Eigen::Quaterniond> q_a(p[1]), q_b(p[3]);
+    const Eigen::Map<const Eigen::Vector3d> t_a(p[0]), t_b(p[1]);
+    const Eigen::Map<const Eigen::Quaterniond> q_a(p[0] + 3), q_b(p[1] + 3);
     const Eigen::Quaterniond q_a_inv = q_a.conjugate();
     const Eigen::Quaterniond A = q_z_inv_ * q_a_inv;
     const Eigen::Quaterniond q_d = A * q_b;
@@ -65,38 +66,27 @@ class EdgeSe3Cost final : public ceres::SizedCostFunction<6, 3, 4, 3, 4> {
     if (!jacobians) return true;
 
     using J6x3 = Eigen::Matrix<double, 6, 3>;
-    using J6x4 = Eigen::Matrix<double, 6, 4, Eigen::RowMajor>;
+    using J6x7 = Eigen::Matrix<double, 6, 7, Eigen::RowMajor>;
     Eigen::Matrix3d G;  // ∂vec(q_Δ)/∂δ_b, columns vec(A ⊗ (e_k, 0) ⊗ q_b)
-    if (jacobians[1] || jacobians[3]) {
-      for (int k = 0; k < 3; ++k) {
-        Eigen::Quaterniond u(0.0, 0.0, 0.0, 0.0);
-        u.vec()[k] = 1.0;
-        G.col(k) = s * (A * u * q_b).vec();
-      }
+    for (int k = 0; k < 3; ++k) {
+      Eigen::Quaterniond u(0.0, 0.0, 0.0, 0.0);
+      u.vec()[k] = 1.0;
+      G.col(k) = s * (A * u * q_b).vec();
     }
+    const Eigen::Matrix<double, 6, 3> WtM = W_.leftCols<3>() * M;  // W·[M; 0]
     if (jacobians[0]) {
-      J6x3 J = J6x3::Zero();
-      J.topRows<3>() = -M;
-      Eigen::Map<Eigen::Matrix<double, 6, 3, Eigen::RowMajor>>(jacobians[0]).noalias() = W_ * J;
-    }
-    if (jacobians[2]) {
-      J6x3 J = J6x3::Zero();
-      J.topRows<3>() = M;
-      Eigen::Map<Eigen::Matrix<double, 6, 3, Eigen::RowMajor>>(jacobians[2]).noalias() = W_ * J;
+      Eigen::Map<J6x7> J(jacobians[0]);
+      J.leftCols<3>() = -WtM;
+      J6x3 Jd;
+      Jd.topRows<3>() = 2.0 * M * skew(d);
+      Jd.bottomRows<3>() = -G;
+      J.rightCols<4>().noalias() = (W_ * Jd) * quaternionPlusJacobian(q_a).transpose();
     }
     if (jacobians[1]) {
-      J6x3 J;
-      J.topRows<3>() = 2.0 * M * skew(d);
-      J.bottomRows<3>() = -G;
-      const J6x3 WJ = W_ * J;
-      Eigen::Map<J6x4>(jacobians[1]).noalias() = WJ * quaternionPlusJacobian(q_a).transpose();
-    }
-    if (jacobians[3]) {
-      J6x3 J;
-      J.topRows<3>().setZero();
-      J.bottomRows<3>() = G;
-      const J6x3 WJ = W_ * J;
-      Eigen::Map<J6x4>(jacobians[3]).noalias() = WJ * quaternionPlusJacobian(q_b).transpose();
+      Eigen::Map<J6x7> J(jacobians[1]);
+      J.leftCols<3>() = WtM;
+      J.rightCols<4>().noalias() =
+          (W_.rightCols<3>() * G) * quaternionPlusJacobian(q_b).transpose();
     }
     return true;
   }
@@ -112,11 +102,11 @@ struct EdgeSe3AutoDiff {
   EdgeSe3AutoDiff(const Eigen::Vector3d& t_z, const Eigen::Quaterniond& q_z, const Mat6& W)
       : t_z(t_z), q_z(q_z.normalized()), W(W) {}
   template <typename T>
-  bool operator()(const T* ta, const T* qa_, const T* tb, const T* qb_, T* res) const {
+  bool operator()(const T* a, const T* b, T* res) const {
     using V3 = Eigen::Matrix<T, 3, 1>;
     using Q = Eigen::Quaternion<T>;
-    const Eigen::Map<const V3> t_a(ta), t_b(tb);
-    const Eigen::Map<const Q> q_a(qa_), q_b(qb_);
+    const Eigen::Map<const V3> t_a(a), t_b(b);
+    const Eigen::Map<const Q> q_a(a + 3), q_b(b + 3);
     const Q qz_inv = q_z.conjugate().template cast<T>();
     const Q q_d = qz_inv * q_a.conjugate() * q_b;
     const V3 t_d = qz_inv * (q_a.conjugate() * (t_b - t_a) - t_z.template cast<T>());

@@ -30,6 +30,13 @@ struct Options {
   double function_tolerance = 1e-10;      ///< stop when |Δcost|/cost < this [-]
   double gradient_tolerance = 1e-12;      ///< stop when max|gradient| (projected) < this
   double parameter_tolerance = 1e-10;     ///< stop when |Δx| < this·(|x| + this)
+  /// Initial LM trust-region radius (1/μ). Large = near Gauss–Newton first steps, which converge
+  /// in a few iterations from the chordal start; rejected steps shrink it.
+  double initial_trust_region_radius = 1e16;
+  /// Sparse Cholesky library of Ceres' SPARSE_NORMAL_CHOLESKY. Auto: SuiteSparse (CHOLMOD,
+  /// supernodal) when the factor has dense fronts, else CXSparse (simplicial) — see docs.
+  enum class SparseLibrary { Auto, SuiteSparse, CxSparse, EigenSparse };
+  SparseLibrary sparse_library = SparseLibrary::Auto;
   /// Loss of loop edges (LossKind::Default on an edge means "use this"). `Dcs` is the
   /// outlier-robust mode: dynamic covariance scaling (Agarwal et al. ICRA 2013) with Φ = scale.
   EdgeLoss loop_loss{LossKind::None, 1.0};
