@@ -1,0 +1,298 @@
+// OctomapExporter end to end: a tiny KITTI-layout box room the test writes (KITTI camera-frame
+// poses, TUM LiDAR poses, obm-map output folder), bad input, interruption, and the real KITTI
+// HDL-64 sample scans at identity.
+#include <gtest/gtest.h>
+#include <octomap/OcTree.h>
+
+#include <atomic>
+#include <filesystem>
+#include <fstream>
+
+#include "mapping_test_utils.hpp"
+#include "obm/core/errors.hpp"
+#include "obm/io/kitti.hpp"
+#include "obm/io/trajectory.hpp"
+#include "obm/mapping/octomap_exporter.hpp"
+#include "test_data.hpp"
+
+namespace {
+
+using obm::Isometry3d;
+using obm::mapping::CellState;
+using obm::mapping::ExporterOptions;
+using obm::mapping::OccupancyMap;
+using obm::mapping::OctomapExporter;
+using obm::mapping::TrajectoryFormat;
+namespace fs = std::filesystem;
+
+// The room in the world frame (= LiDAR frame of the first scan): 8 × 6 × 3.2 m, floor 1.5 m below
+// the sensor. Bounds are odd multiples of 0.1 so walls lie in the middle of a 0.2 m voxel layer.
+const Eigen::Vector3d kRoomLo(-2.9, -2.9, -1.5);
+const Eigen::Vector3d kRoomHi(5.1, 3.1, 1.7);
+
+// A KITTI-like extrinsic: camera x right, y down, z forward vs. LiDAR x forward, y left, z up,
+// plus a small offset, so that camera and LiDAR poses differ.
+Isometry3d cameraFromLidar() {
+  Eigen::Matrix3d R;
+  R << 0, -1, 0, 0, 0, -1, 1, 0, 0;
+  Isometry3d T = Isometry3d::Identity();
+  T.linear() = R;
+  T.translation() = Eigen::Vector3d(0.03, -0.08, -0.27);
+  return T;
+}
+
+std::vector<Isometry3d> lidarPoses() {
+  std::vector<Isometry3d> poses;
+  for (int k = 0; k < 3; ++k) {
+    Isometry3d T = Isometry3d::Identity();
+    T.linear() = Eigen::AngleAxisd(0.15 * k, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    T.translation() = Eigen::Vector3d(0.6 * k, 0.2 * k, 0.0);
+    poses.push_back(T);
+  }
+  return poses;
+}
+
+/// Writes velodyne/*.bin, calib.txt, times.txt, poses.txt (camera frame) of the box room.
+std::string writeBoxRoomSequence(const std::string& name) {
+  const std::string dir = obm::test::scratchDir(name);
+  fs::create_directories(dir + "/velodyne");
+  const auto poses = lidarPoses();
+  std::vector<double> times;
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    obm::io::writeKittiVelodyne(
+        dir + "/velodyne/" + obm::io::kittiScanFileName(k),
+        obm::test::boxRoomScan(kRoomLo, kRoomHi, poses[k], 360, -60.0, 60.0, 1.0));
+    times.push_back(0.1 * k);
+  }
+  obm::io::KittiCalib calib;
+  calib.T_cam0_velo = cameraFromLidar();
+  obm::io::writeKittiCalib(dir + "/calib.txt", calib);
+  obm::io::writeKittiTimes(dir + "/times.txt", times);
+  obm::io::writeKittiPoses(dir + "/poses.txt",
+                           obm::io::lidarToCameraPoses(poses, calib.T_cam0_velo));
+  return dir;
+}
+
+ExporterOptions baseOptions(const std::string& seq, const std::string& traj,
+                            const std::string& out) {
+  ExporterOptions o;
+  o.input = seq;
+  o.trajectory = traj;
+  o.output = out;
+  o.progress = false;
+  o.mapping.resolution = 0.2;
+  return o;
+}
+
+void expectBoxRoom(const OccupancyMap& map) {
+  // Walls occupied (points in the middle of each wall's voxel layer), the room's inside free,
+  // outside unknown.
+  EXPECT_EQ(map.state({5.1, 0.3, 0.1}), CellState::Occupied);   // +x wall
+  EXPECT_EQ(map.state({-2.9, 0.3, 0.1}), CellState::Occupied);  // −x wall
+  EXPECT_EQ(map.state({1.1, 3.1, 0.1}), CellState::Occupied);   // +y wall
+  EXPECT_EQ(map.state({1.1, 0.3, -1.5}), CellState::Occupied);  // floor
+  EXPECT_EQ(map.state({1.1, 0.3, 1.7}), CellState::Occupied);   // ceiling
+  EXPECT_EQ(map.state({1.1, 0.3, 0.1}), CellState::Free);
+  EXPECT_EQ(map.state({3.5, -1.5, -0.5}), CellState::Free);
+  EXPECT_EQ(map.state({7.0, 0.3, 0.1}), CellState::Unknown);
+  EXPECT_EQ(map.state({1.1, 0.3, 3.0}), CellState::Unknown);
+  const auto s = map.stats();
+  EXPECT_TRUE((s.bbox_min.array() >= kRoomLo.array() - 0.21).all()) << s.bbox_min.transpose();
+  EXPECT_TRUE((s.bbox_max.array() <= kRoomHi.array() + 0.21).all()) << s.bbox_max.transpose();
+}
+
+TEST(OctomapExporter, KittiFolderWithCameraFramePoses) {
+  const std::string seq = writeBoxRoomSequence("exporter_kitti_seq");
+  const std::string out = obm::test::scratchDir("exporter_kitti_out");
+  auto o = baseOptions(seq, seq + "/poses.txt", out + "/map.bt");
+  o.png = out + "/top.png";
+  const auto sum = OctomapExporter(o).run();
+  EXPECT_EQ(sum.input_kind, "kitti");
+  EXPECT_EQ(sum.trajectory_format, TrajectoryFormat::Kitti);
+  EXPECT_EQ(sum.frames, 3u);
+  EXPECT_EQ(sum.frames_integrated, 3u);
+  EXPECT_FALSE(sum.interrupted);
+  EXPECT_FALSE(sum.stats.empty());
+
+  octomap::OcTree tree(0.1);
+  ASSERT_TRUE(tree.readBinary(out + "/map.bt"));
+  EXPECT_NEAR(tree.getResolution(), 0.2, 1e-12);
+  EXPECT_EQ(tree.getNumLeafNodes(), sum.stats.num_leaves);
+  expectBoxRoom(OccupancyMap::read(out + "/map.bt"));
+  EXPECT_TRUE(fs::is_regular_file(out + "/top.png"));
+  EXPECT_GT(sum.top_view.width, 0);
+  const std::string text = obm::mapping::formatSummary(sum);
+  EXPECT_NE(text.find("leaves"), std::string::npos);
+  EXPECT_NE(text.find("bounding box"), std::string::npos);
+}
+
+TEST(OctomapExporter, TumLidarPosesAndObmMapFolderGiveTheSameMap) {
+  const std::string seq = writeBoxRoomSequence("exporter_tum_seq");
+  const std::string out = obm::test::scratchDir("exporter_tum_out");
+  // The same trajectory as LiDAR poses with time stamps (TUM), and an obm-map-like output folder.
+  obm::io::writeTumTrajectory(out + "/lidar_tum.txt",
+                              obm::io::stampPoses(lidarPoses(), {0.0, 0.1, 0.2}));
+  fs::create_directories(out + "/run");
+  fs::copy_file(seq + "/poses.txt", out + "/run/trajectory_kitti.txt");
+
+  const auto a = OctomapExporter(baseOptions(seq, seq + "/poses.txt", out + "/a.bt")).run();
+  const auto b = OctomapExporter(baseOptions(seq, out + "/lidar_tum.txt", out + "/b.bt")).run();
+  const auto c = OctomapExporter(baseOptions(seq, out + "/run", out + "/c.ot")).run();
+  EXPECT_EQ(b.trajectory_format, TrajectoryFormat::Tum);
+  EXPECT_EQ(b.frames_integrated, 3u);
+  EXPECT_EQ(c.trajectory_path, out + "/run/trajectory_kitti.txt");
+  EXPECT_EQ(a.stats.num_leaves, b.stats.num_leaves);
+  EXPECT_EQ(a.stats.num_occupied_leaves, b.stats.num_occupied_leaves);
+  EXPECT_EQ(a.stats.num_leaves, c.stats.num_leaves);
+  expectBoxRoom(OccupancyMap::read(out + "/c.ot"));
+
+  // --every 2 takes scans 0 and 2.
+  auto o = baseOptions(seq, seq + "/poses.txt", out + "/every.bt");
+  o.every = 2;
+  EXPECT_EQ(OctomapExporter(o).run().frames_integrated, 2u);
+}
+
+TEST(OctomapExporter, DetectsTrajectoryFormat) {
+  const std::string dir = obm::test::scratchDir("exporter_detect");
+  {
+    std::ofstream(dir + "/k.txt") << "1 0 0 0 0 1 0 0 0 0 1 0\n";
+    std::ofstream(dir + "/t.txt") << "# timestamp tx ty tz qx qy qz qw\n\n0.5 1 2 3 0 0 0 1\n";
+    std::ofstream(dir + "/bad.txt") << "# comment\n1 2 3 4 5\n";
+  }
+  EXPECT_EQ(obm::mapping::detectTrajectoryFormat(dir + "/k.txt"), TrajectoryFormat::Kitti);
+  EXPECT_EQ(obm::mapping::detectTrajectoryFormat(dir + "/t.txt"), TrajectoryFormat::Tum);
+  try {
+    obm::mapping::detectTrajectoryFormat(dir + "/bad.txt");
+    FAIL();
+  } catch (const obm::FormatError& e) {
+    EXPECT_EQ(e.line(), 2u);
+    EXPECT_EQ(e.file(), dir + "/bad.txt");
+  }
+  EXPECT_THROW(obm::mapping::detectTrajectoryFormat(dir + "/none.txt"), obm::IoError);
+  EXPECT_EQ(obm::mapping::parseTrajectoryFormat("TUM"), TrajectoryFormat::Tum);
+  EXPECT_THROW(obm::mapping::parseTrajectoryFormat("g2o"), obm::ConfigError);
+}
+
+// Runs the exporter expecting `E`; checks that the message names `needle` and nothing was written.
+template <typename E>
+void expectFailsWritingNothing(const ExporterOptions& o, const std::string& needle) {
+  try {
+    OctomapExporter(o).run();
+    ADD_FAILURE() << "expected an exception naming " << needle;
+  } catch (const E& e) {
+    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+  }
+  const fs::path out_dir = fs::path(o.output).parent_path();
+  if (fs::is_directory(out_dir))
+    for (const auto& f : fs::directory_iterator(out_dir)) {
+      const std::string name = f.path().filename().string();
+      EXPECT_TRUE(name.find(".bt") == std::string::npos && name.find(".png") == std::string::npos)
+          << "left behind: " << name;
+    }
+}
+
+TEST(OctomapExporter, BadInputNamesTheFileAndWritesNothing) {
+  const std::string seq = writeBoxRoomSequence("exporter_bad_seq");
+  const std::string out = obm::test::scratchDir("exporter_bad_out");
+  auto o = baseOptions(seq, seq + "/poses.txt", out + "/map.bt");
+  o.png = out + "/top.png";
+
+  auto missing = o;
+  missing.input = seq + "_nope";
+  expectFailsWritingNothing<obm::IoError>(missing, seq + "_nope");
+
+  // Two poses for three scans.
+  const auto lines = obm::io::readKittiTrajectory(seq + "/poses.txt");
+  obm::io::writeKittiTrajectory(out + "/short.txt", {lines[0], lines[1]});
+  auto short_traj = o;
+  short_traj.trajectory = out + "/short.txt";
+  expectFailsWritingNothing<obm::FormatError>(short_traj, "short.txt");
+
+  // An unreadable second line.
+  {
+    std::ofstream f(out + "/broken.txt");
+    f << "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0.5 0 1 0 x 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1 0\n";
+  }
+  auto broken = o;
+  broken.trajectory = out + "/broken.txt";
+  expectFailsWritingNothing<obm::FormatError>(broken, "broken.txt:2");
+
+  auto no_traj = o;
+  no_traj.trajectory = out + "/absent.txt";
+  expectFailsWritingNothing<obm::IoError>(no_traj, "absent.txt");
+
+  // A TUM trajectory whose stamps match no scan.
+  obm::io::writeTumTrajectory(out + "/late.txt",
+                              obm::io::stampPoses(lidarPoses(), {100.0, 100.1, 100.2}));
+  auto late = o;
+  late.trajectory = out + "/late.txt";
+  expectFailsWritingNothing<obm::FormatError>(late, "late.txt");
+
+  auto wrong_format = o;
+  wrong_format.format = TrajectoryFormat::Tum;
+  expectFailsWritingNothing<obm::FormatError>(wrong_format, "poses.txt");
+
+  auto no_folder = o;
+  no_folder.png = out + "/missing_dir/top.png";
+  expectFailsWritingNothing<obm::IoError>(no_folder, "missing_dir");
+
+  auto bad_ext = o;
+  bad_ext.output = out + "/map.ply";
+  EXPECT_THROW(OctomapExporter{bad_ext}, obm::ConfigError);
+}
+
+TEST(OctomapExporter, CancelWritesWhatWasIntegrated) {
+  const std::string seq = writeBoxRoomSequence("exporter_cancel_seq");
+  const std::string out = obm::test::scratchDir("exporter_cancel_out");
+  std::atomic<bool> cancel{true};
+  auto o = baseOptions(seq, seq + "/poses.txt", out + "/map.bt");
+  o.cancel = &cancel;
+  const auto sum = OctomapExporter(o).run();
+  EXPECT_TRUE(sum.interrupted);
+  EXPECT_EQ(sum.frames_integrated, 0u);
+  octomap::OcTree tree(0.1);
+  EXPECT_TRUE(tree.readBinary(out + "/map.bt"));  // a valid (empty) map, written atomically
+  EXPECT_EQ(tree.getNumLeafNodes(), 0u);
+}
+
+TEST(OctomapExporter, RealKittiSampleAtIdentity) {
+  OBM_REQUIRE_SHARED_DATA("kitti/hdl64_sample");
+  const std::string real = obm::test::sharedDataDir() + "/kitti/hdl64_sample";
+  // A KITTI layout around the real scans: symlinks (never copies), identity Tr and poses.
+  const std::string seq = obm::test::scratchDir("exporter_real_seq");
+  fs::create_directories(seq + "/velodyne");
+  std::vector<double> times;
+  for (int k = 0; k < 6; ++k) {
+    const std::string name = obm::io::kittiScanFileName(k);
+    fs::create_symlink(fs::absolute(real + "/" + name), seq + "/velodyne/" + name);
+    times.push_back(0.1 * k);
+  }
+  obm::io::writeKittiCalib(seq + "/calib.txt", obm::io::KittiCalib{});
+  obm::io::writeKittiTimes(seq + "/times.txt", times);
+  obm::io::writeKittiTrajectory(seq + "/identity.txt",
+                                std::vector<Isometry3d>(6, Isometry3d::Identity()));
+
+  const std::string out = obm::test::scratchDir("exporter_real_out");
+  auto o = baseOptions(seq, seq + "/identity.txt", out + "/map.bt");
+  o.png = out + "/top.png";
+  const auto sum = OctomapExporter(o).run();
+  EXPECT_EQ(sum.frames_integrated, 6u);
+  EXPECT_GT(sum.points, 6u * 100000u);
+  const auto& s = sum.stats;
+  EXPECT_GT(s.num_occupied_leaves, 1000u);
+  EXPECT_GT(s.free_volume_m3, s.occupied_volume_m3);
+  // Bounded by the beams' reach: max_range around the sensor.
+  const double reach = o.mapping.max_range + 2 * o.mapping.resolution;
+  EXPECT_TRUE((s.bbox_min.array() >= -reach).all()) << s.bbox_min.transpose();
+  EXPECT_TRUE((s.bbox_max.array() <= reach).all()) << s.bbox_max.transpose();
+  // The ground below a car-mounted HDL-64 (about 1.7 m down) is occupied near the car.
+  EXPECT_LT(s.occupied_min.z(), -1.2);
+  octomap::OcTree tree(0.1);
+  ASSERT_TRUE(tree.readBinary(out + "/map.bt"));
+  EXPECT_EQ(tree.getNumLeafNodes(), s.num_leaves);
+  EXPECT_TRUE(fs::is_regular_file(out + "/top.png"));
+  // The sensor sits in free space (beams start there).
+  EXPECT_EQ(OccupancyMap::read(out + "/map.bt").state({2.0, 0.0, 0.0}), CellState::Free);
+}
+
+}  // namespace
