@@ -22,7 +22,7 @@ int main(int argc, char** argv) {
       "and pictures. The output folder appears only when everything was written."};
   obm::sim::SimCommandLine cl;
   std::string out, log_level = "info";
-  bool overwrite = false, quiet = false, list = false;
+  bool overwrite = false, quiet = false, list = false, preview = false;
   app.add_option("-p,--preset", cl.preset,
                  "preset name: config/sim/NAME.yaml, searched in $OBM_CONFIG_DIR, "
                  "<exe>/../share/obmslam/config and the source tree (see --list-presets)");
@@ -40,6 +40,9 @@ int main(int argc, char** argv) {
   app.add_option("--threads", cl.threads, "ray-casting threads, 0 = all cores [default: 0]");
   app.add_flag("--overwrite", overwrite, "replace a non-empty output folder");
   app.add_flag("-q,--quiet", quiet, "no progress bar");
+  app.add_flag("--preview", preview,
+               "only the pictures (top view + one frame) and sim_info.yaml: a quick look at what "
+               "the configuration generates");
   app.add_flag("--list-presets", list, "print the presets found and exit");
   app.add_option("--log-level", log_level, "debug, info, warn, error or off [default: info]");
   CLI11_PARSE(app, argc, argv);
@@ -60,6 +63,7 @@ int main(int argc, char** argv) {
     opt.overwrite = overwrite;
     opt.progress = !quiet;
     opt.cancel = &g_cancel;
+    opt.preview_only = preview;
     const auto sum = sim.run(opt);
     std::cout << "obm-sim: " << sum.frames << " frames, " << sum.points << " points, "
               << sum.length_m << " m of trajectory -> " << sum.out_dir << "\n";

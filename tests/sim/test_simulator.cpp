@@ -331,8 +331,9 @@ TEST(SimulatorBadInput, EveryPresetLoadsAndTheSelfContainedOnesNeedNoExternalDat
     std::ifstream is(path);
     const std::string text((std::istreambuf_iterator<char>(is)), {});
     const bool external = text.find("${") != std::string::npos;
-    if (std::string(name) == "kitti_like_urban" || std::string(name) == "indoor_loop")
+    if (std::string(name) == "kitti_like_urban" || std::string(name) == "indoor_loop") {
       EXPECT_FALSE(external) << name;
+    }
     if (external && !fs::exists(test::sharedDataDir())) continue;
     EXPECT_NO_THROW(SimConfig::loadFile(path)) << name;
   }

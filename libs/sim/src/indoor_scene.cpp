@@ -412,11 +412,11 @@ GeneratedScene generateRoomAroundTrajectory(const IndoorSceneParams& P, const Tr
     }
     return true;
   };
-  auto place = [&](const V2& c, const V2& half, double yaw) {
+  auto place = [&](const V2& c, const V2& half, double yaw, double margin = 0.5) {
     if (c.x() - half.norm() < x0 + 0.5 * t - 0.6 || c.x() + half.norm() > x1 - 0.5 * t + 0.6 ||
         c.y() - half.norm() < y0 + 0.5 * t - 0.6 || c.y() + half.norm() > y1 - 0.5 * t + 0.6)
       return false;
-    if (!occ.isFree(c, half, yaw, 0.05) || !camera_clear(c, half, yaw, 0.5)) return false;
+    if (!occ.isFree(c, half, yaw, 0.05) || !camera_clear(c, half, yaw, margin)) return false;
     occ.mark(c, half, yaw);
     return true;
   };
@@ -488,6 +488,36 @@ GeneratedScene generateRoomAroundTrajectory(const IndoorSceneParams& P, const Tr
       } else {
         a += 0.5;
       }
+    }
+  }
+  // Things on the floor around the desk (boxes, bins, plants, a low cabinet) so that views of
+  // the floor are not a bare plane.
+  for (int k = 0, placed = 0; k < 200 && placed < 10; ++k) {
+    const double r = rng.uniform(0.8, 3.5), a = rng.uniform(0, 2 * M_PI);
+    const V2 c = focus + r * V2(std::cos(a), std::sin(a));
+    const double yaw_o = rng.uniform(0, M_PI);
+    const int kind = static_cast<int>(rng.index(4));
+    const V2 half = kind == 3 ? V2(0.4, 0.22) : V2(0.2, 0.2);
+    if (!place(c, half, yaw_o, 0.35)) continue;
+    ++placed;
+    ++n_objects;
+    const Iso To = pose2(c, 0, yaw_o);
+    if (kind == 0) {  // a stack of boxes
+      const double h1 = rng.uniform(0.2, 0.45);
+      bf.box(To * Iso(Eigen::Translation3d(0, 0, 0.5 * h1)), V3(0.38, 0.36, h1), Material::Clutter);
+      if (rng.bernoulli(0.5))
+        bf.box(To * Iso(Eigen::Translation3d(0.02, 0.01, h1 + 0.12)) *
+                   Iso(Eigen::AngleAxisd(rng.uniform(-0.4, 0.4), V3::UnitZ())),
+               V3(0.3, 0.26, 0.24), Material::Clutter);
+    } else if (kind == 1) {  // a bin
+      bf.cylinder(To, 0.15, 0.18, 0.4, 14, Material::Plastic);
+    } else if (kind == 2) {  // a potted plant
+      bf.cylinder(To, 0.13, 0.17, 0.3, 12, Material::Plastic);
+      bf.blob(To * Iso(Eigen::Translation3d(0, 0, 0.6)), V3(0.25, 0.25, 0.35), 1, 0.3, rng.next(),
+              Material::Foliage);
+    } else {  // a low cabinet with something on it
+      detail::addCabinet(bf, To * Iso(Eigen::Translation3d(0, -0.22, 0)), 0.8, 0.44, 0.6);
+      clutterAt(bf, mc, c, 0.6, rng);
     }
   }
   // A second table with chairs and clutter somewhere free.

@@ -474,11 +474,13 @@ SimSummary SequenceSimulator::run(const SimOptions& opt) {
   const std::string label = !C.output.sensor_label.empty() ? C.output.sensor_label
                             : lidar                        ? "VELODYNE"
                                                            : "KINECT";
+  OutputConfig out_cfg = C.output;
+  if (opt.preview_only) out_cfg.rawlog = out_cfg.dataset = false, out_cfg.pictures = true;
   std::unique_ptr<io::RawlogWriter> rawlog;
-  if (C.output.rawlog)
+  if (out_cfg.rawlog)
     rawlog = std::make_unique<io::RawlogWriter>((T / "sequence.rawlog").string(),
                                                 C.output.rawlog_compression);
-  if (C.output.dataset) {
+  if (out_cfg.dataset) {
     if (lidar)
       ensureDirectory((T / "velodyne").string());
     else {
@@ -512,7 +514,9 @@ SimSummary SequenceSimulator::run(const SimOptions& opt) {
       write_us += static_cast<long long>(1e6 * tw.seconds());
     };
   };
-  for (std::size_t k = 0; k < n; ++k) {
+  const std::size_t k_begin = opt.preview_only ? pic_frame : 0,
+                    k_end = opt.preview_only ? pic_frame + 1 : n;
+  for (std::size_t k = k_begin; k < k_end; ++k) {
     if (opt.cancel && opt.cancel->load())
       throw Cancelled("interrupted at frame " + std::to_string(k));
     const double t = s.traj.stamps[k];
@@ -524,7 +528,7 @@ SimSummary SequenceSimulator::run(const SimOptions& opt) {
                                            : lsim->simulate(*s.rc, s.traj.poses[k], t, seed));
       t_sensor += tm.seconds();
       sum.points += sweep->cloud.size();
-      if (C.output.dataset) {
+      if (out_cfg.dataset) {
         const std::string path = (T / "velodyne" / io::kittiScanFileName(k)).string();
         files_q.push(timed([sweep, path] { io::writeKittiVelodyne(path, sweep->cloud); }));
       }
@@ -534,7 +538,7 @@ SimSummary SequenceSimulator::run(const SimOptions& opt) {
           rw->writePointCloud(sweep->cloud, Eigen::Isometry3d::Identity(), t, label);
         }));
       }
-      if (C.output.pictures && k == pic_frame) {
+      if (out_cfg.pictures && k == pic_frame) {
         const std::string path = (T / "preview_frame.png").string();
         const std::size_t rings = C.sensor.lidar.ringElevations().size(),
                           cols = C.sensor.lidar.columns();
@@ -555,7 +559,7 @@ SimSummary SequenceSimulator::run(const SimOptions& opt) {
         if (f->depth[i] > 0.f) ++sum.points;
       }
       const std::string name = stampName(t) + ".png";
-      if (C.output.dataset) {
+      if (out_cfg.dataset) {
         const std::string dpath = (T / "depth" / name).string();
         files_q.push(timed([d, dpath] { io::writeDepthPng(dpath, *d); }));
         depth_list.push_back({t, "depth/" + name});
@@ -578,7 +582,7 @@ SimSummary SequenceSimulator::run(const SimOptions& opt) {
           rw->writeDepth(*d, scale, K, Eigen::Isometry3d::Identity(), t, label);
         }));
       }
-      if (C.output.pictures && k == pic_frame) {
+      if (out_cfg.pictures && k == pic_frame) {
         const std::string path = (T / "preview_frame.png").string();
         const double maxd = C.sensor.rgbd.max_depth;
         files_q.push(timed([f, path, maxd] { writePng(path, renderDepthFrame(*f, maxd)); }));
@@ -600,7 +604,7 @@ SimSummary SequenceSimulator::run(const SimOptions& opt) {
     rel_t.push_back(s.traj.stamps[k] - s.traj.stamps.front());
     rel.push_back(P.front().inverse() * P[k]);
   }
-  if (C.output.dataset) {
+  if (out_cfg.dataset) {
     if (lidar) {
       io::writeKittiPoses((T / "poses.txt").string(), io::lidarToCameraPoses(rel, s.T_cam0_velo));
       io::writeKittiTimes((T / "times.txt").string(), rel_t);
@@ -622,7 +626,7 @@ SimSummary SequenceSimulator::run(const SimOptions& opt) {
       io::writeOpen3dIntrinsics((T / "camera_intrinsic.json").string(), K);
     }
   }
-  if (C.output.pictures) {
+  if (out_cfg.pictures) {
     const auto& B = s.scene.bounds;
     const bool indoor = C.scene.type == "indoor_floor" || C.scene.type == "indoor_room";
     Eigen::AlignedBox3d region = B;
@@ -648,6 +652,7 @@ SimSummary SequenceSimulator::run(const SimOptions& opt) {
     y << "sensor: " << C.sensor.type << "\n";
     y << "rate_hz: " << C.sensor.rate() << "\n";
     y << "layout: " << C.output.format << "\n";
+    if (opt.preview_only) y << "preview_only: true  # pictures only, no dataset files\n";
     y << "scene: \"" << s.scene.description << "\"\n";
     y << "trajectory: \"" << s.traj.source << "\"\n";
     y << "trajectory_length_m: " << sum.length_m << "\n";

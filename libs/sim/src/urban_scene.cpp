@@ -574,6 +574,7 @@ GeneratedScene generateUrbanAroundPath(const UrbanSceneParams& P, const Trajecto
   // Buildings along both sides of the road, then a back row on a coarse grid.
   Rng rng(hashSeed(P.seed, 0xa10, 1));
   const double front = P.street_half_width + P.sidewalk_width;
+  int tries = 0, built_n = 0;
   for (int side = -1; side <= 1; side += 2) {
     double pos = 0.0, total = 0.0;
     std::vector<double> cum(1, 0.0);
@@ -587,7 +588,7 @@ GeneratedScene generateUrbanAroundPath(const UrbanSceneParams& P, const Trajecto
       p = line[k - 1] + (s - cum[k - 1]) * d;
     };
     while (pos < total) {
-      const double W = rng.uniform(P.lot_width_min, P.lot_width_max);
+      double W = rng.uniform(P.lot_width_min, P.lot_width_max);
       const double D = rng.uniform(P.building_depth_min, P.building_depth_max);
       const double sb = rng.uniform(0.0, P.setback_max);
       const int style =
@@ -603,7 +604,13 @@ GeneratedScene generateUrbanAroundPath(const UrbanSceneParams& P, const Trajecto
       const V2 centre = p - out * (front + sb);
       const V2 o = centre - 0.5 * W * ex;
       bool built = false;
-      if (!gap) built = city.building(o, yawOf(ex), W, D, style, W < 20.0, seed, true, front + 0.3);
+      if (!gap) built = city.building(o, yawOf(ex), W, D, style, W < 20.0, seed, true, front - 0.1);
+      if (!gap && !built) {  // on a bend a narrower, shallower house may still fit
+        const double w2 = P.lot_width_min, d2 = P.building_depth_min;
+        built = city.building(centre - 0.5 * w2 * ex, yawOf(ex), w2, d2, style, false, seed, true,
+                              front - 0.1);
+        if (built) W = w2;
+      }
       if (!built && rng.bernoulli(0.5)) {
         const V2 a = o + 0.3 * ey, e = a + W * ex;
         const V2 mid = 0.5 * (a + e);
@@ -615,9 +622,12 @@ GeneratedScene generateUrbanAroundPath(const UrbanSceneParams& P, const Trajecto
                           Material::Wall);
         }
       }
+      ++tries;
+      built_n += built ? 1 : 0;
       pos += W + (built ? rng.uniform(0.0, 3.0) : 2.0);
     }
   }
+  OBM_LOG_DEBUG("sim", "road-side lots: " << built_n << " buildings of " << tries << " lots");
   for (double y = city.y0 + 10; y < city.y1 - 10; y += P.fill_spacing)
     for (double x = city.x0 + 10; x < city.x1 - 10; x += P.fill_spacing) {
       const V2 c(x + rng.uniform(-5, 5), y + rng.uniform(-5, 5));

@@ -148,6 +148,9 @@ struct SimOptions {
   bool overwrite = false;                     ///< replace a non-empty destination
   bool progress = true;                       ///< progress bar on stderr
   const std::atomic<bool>* cancel = nullptr;  ///< set to true to stop (→ Cancelled)
+  /// Only the pictures and sim_info.yaml: simulates just the pictured frame (a quick look at
+  /// what a configuration generates).
+  bool preview_only = false;
 };
 
 /// The whole pipeline; the app class that obm-sim and the tests drive.
