@@ -65,8 +65,12 @@ int main(int argc, char** argv) {
     opt.cancel = &g_cancel;
     opt.preview_only = preview;
     const auto sum = sim.run(opt);
-    std::cout << "obm-sim: " << sum.frames << " frames, " << sum.points << " points, "
-              << sum.length_m << " m of trajectory -> " << sum.out_dir << "\n";
+    if (preview)
+      std::cout << "obm-sim: preview of a " << sum.frames << "-frame sequence (" << sum.length_m
+                << " m of trajectory) -> " << sum.out_dir << "\n";
+    else
+      std::cout << "obm-sim: " << sum.frames << " frames, " << sum.points << " points, "
+                << sum.length_m << " m of trajectory -> " << sum.out_dir << "\n";
     return 0;
   } catch (const obm::sim::Cancelled& e) {
     std::cerr << "obm-sim: " << e.what() << "; nothing was written\n";

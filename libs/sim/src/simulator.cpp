@@ -354,16 +354,24 @@ void SequenceSimulator::prepare() {
   State& s = *st_;
   const auto& tc = cfg_.trajectory;
   Trajectory traj;
-  if (tc.type == "kitti") {
-    if (!tc.calib_file.empty()) {
-      // KITTI's Tr is orthonormal to ~1e-7 only; projecting it onto SO(3) makes the camera ↔
-      // LiDAR conversions exact inverses of each other.
-      s.T_cam0_velo = io::readKittiCalib(tc.calib_file).T_cam0_velo;
-      s.T_cam0_velo.linear() = orthonormalize(s.T_cam0_velo.linear());
+  try {
+    if (tc.type == "kitti") {
+      if (!tc.calib_file.empty()) {
+        // KITTI's Tr is orthonormal to ~1e-7 only; projecting it onto SO(3) makes the camera ↔
+        // LiDAR conversions exact inverses of each other.
+        s.T_cam0_velo = io::readKittiCalib(tc.calib_file).T_cam0_velo;
+        s.T_cam0_velo.linear() = orthonormalize(s.T_cam0_velo.linear());
+      }
+      traj = loadKittiTrajectory(tc.file, tc.times_file, s.T_cam0_velo, tc.max_poses);
+    } else if (tc.type == "tum") {
+      traj = loadTumTrajectory(tc.file, tc.max_poses).resampled(cfg_.sensor.rate());
     }
-    traj = loadKittiTrajectory(tc.file, tc.times_file, s.T_cam0_velo, tc.max_poses);
-  } else if (tc.type == "tum") {
-    traj = loadTumTrajectory(tc.file, tc.max_poses).resampled(cfg_.sensor.rate());
+  } catch (const IoError& e) {
+    // Say where the missing file came from (a preset's ${OBM_SHARED_DATA} path, or --trajectory).
+    throw IoError(std::string(e.what()) + " (a trajectory file of " +
+                  (cfg_.source.empty() ? std::string("the configuration") : cfg_.source) +
+                  "; set OBM_SHARED_DATA to the folder holding kitti/ and tum/, or pass "
+                  "--trajectory FILE)");
   }
   const auto& sc = cfg_.scene;
   if (sc.type == "urban_grid")
@@ -602,11 +610,14 @@ SimSummary SequenceSimulator::run(const SimOptions& opt) {
   std::vector<Eigen::Isometry3d> rel;
   for (std::size_t k = 0; k < n; ++k) {
     rel_t.push_back(s.traj.stamps[k] - s.traj.stamps.front());
-    rel.push_back(P.front().inverse() * P[k]);
+    // The first pose is the identity exactly (not up to round-off), as in KITTI's files.
+    rel.push_back(k == 0 ? Eigen::Isometry3d::Identity() : P.front().inverse() * P[k]);
   }
   if (out_cfg.dataset) {
     if (lidar) {
-      io::writeKittiPoses((T / "poses.txt").string(), io::lidarToCameraPoses(rel, s.T_cam0_velo));
+      auto cam = io::lidarToCameraPoses(rel, s.T_cam0_velo);
+      cam.front() = Eigen::Isometry3d::Identity();
+      io::writeKittiPoses((T / "poses.txt").string(), cam);
       io::writeKittiTimes((T / "times.txt").string(), rel_t);
       io::KittiCalib calib;
       const KittiCalibration k00 = KittiCalibration::kitti00();
