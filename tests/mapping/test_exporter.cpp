@@ -11,6 +11,8 @@
 #include "mapping_test_utils.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/io/kitti.hpp"
+#include "obm/io/rawlog.hpp"
+#include "obm/io/rgbd.hpp"
 #include "obm/io/trajectory.hpp"
 #include "obm/mapping/octomap_exporter.hpp"
 #include "test_data.hpp"
@@ -293,6 +295,93 @@ TEST(OctomapExporter, RealKittiSampleAtIdentity) {
   EXPECT_TRUE(fs::is_regular_file(out + "/top.png"));
   // The sensor sits in free space (beams start there).
   EXPECT_EQ(OccupancyMap::read(out + "/map.bt").state({2.0, 0.0, 0.0}), CellState::Free);
+}
+
+}  // namespace
+
+namespace {
+
+TEST(OctomapExporter, TumRgbdFolderWithColour) {
+  // Two frames of a red wall 2 m in front of the camera (optical z), TUM layout and depth scale.
+  const std::string seq = obm::test::scratchDir("exporter_rgbd_seq");
+  fs::create_directories(seq + "/depth");
+  fs::create_directories(seq + "/rgb");
+  const obm::io::PinholeIntrinsics K;  // TUM's ROS default, 640 x 480
+  obm::io::DepthImage depth;
+  depth.width = K.width;
+  depth.height = K.height;
+  depth.data.assign(static_cast<std::size_t>(K.width) * K.height, 2 * 5000);  // 2 m
+  obm::io::ColorImage rgb;
+  rgb.width = K.width;
+  rgb.height = K.height;
+  for (int i = 0; i < K.width * K.height; ++i) rgb.rgb.insert(rgb.rgb.end(), {200, 20, 30});
+  std::vector<obm::io::StampedFile> depths, colours;
+  obm::io::Trajectory traj;
+  for (int k = 0; k < 2; ++k) {
+    const double t = 1305031102.0 + 0.1 * k;
+    const std::string name = std::to_string(k) + ".png";
+    obm::io::writeDepthPng(seq + "/depth/" + name, depth);
+    obm::io::writeColorPng(seq + "/rgb/" + name, rgb);
+    depths.push_back({t, "depth/" + name});
+    colours.push_back({t + 0.005, "rgb/" + name});
+    obm::io::StampedPose p;
+    p.t = t + 0.001;
+    p.T.translation() = Eigen::Vector3d(0.1 * k, 0.0, 0.0);
+    traj.push_back(p);
+  }
+  obm::io::writeTumFileList(seq + "/depth.txt", depths);
+  obm::io::writeTumFileList(seq + "/rgb.txt", colours);
+  const std::string out = obm::test::scratchDir("exporter_rgbd_out");
+  obm::io::writeTumTrajectory(out + "/camera_tum.txt", traj);
+
+  auto o = baseOptions(seq, out + "/camera_tum.txt", out + "/wall.ot");
+  o.mapping.resolution = 0.05;
+  o.color = true;
+  o.png = out + "/wall.png";
+  o.top_view.use_voxel_color = true;
+  const auto sum = OctomapExporter(o).run();
+  EXPECT_EQ(sum.input_kind, "tum-rgbd");
+  EXPECT_EQ(sum.frames_integrated, 2u);
+  EXPECT_TRUE(sum.color);
+  const OccupancyMap map = OccupancyMap::read(out + "/wall.ot");
+  EXPECT_EQ(map.kind(), obm::mapping::MapKind::Color);
+  const Eigen::Vector3d p_wall(0.02, 0.02, 2.0 + 0.025 / 2);  // optical frame = world here
+  EXPECT_EQ(map.state(p_wall), CellState::Occupied);
+  EXPECT_EQ(map.state({0.02, 0.02, 1.0}), CellState::Free);
+  EXPECT_EQ(map.state({0.02, 0.02, 2.5}), CellState::Unknown);
+  obm::Color3u8 c;
+  ASSERT_TRUE(map.color(p_wall, c));
+  EXPECT_NEAR(c[0], 200, 2);
+  EXPECT_NEAR(c[1], 20, 2);
+  // The top view (looking down world z = along the optical axis) shows the wall's colour.
+  const auto img = obm::io::readColorPng(out + "/wall.png");
+  const int col = static_cast<int>((0.02 - sum.top_view.x_min) / sum.top_view.pixel_size);
+  const int row = static_cast<int>((sum.top_view.y_max - 0.02) / sum.top_view.pixel_size);
+  EXPECT_EQ(img.at(col, row), obm::Color3u8(200, 20, 30));
+}
+
+TEST(OctomapExporter, RawlogWithTumVehiclePoses) {
+  const std::string dir = obm::test::scratchDir("exporter_rawlog");
+  const auto poses = lidarPoses();
+  obm::io::Trajectory traj;
+  {
+    obm::io::RawlogWriter w(dir + "/room.rawlog");
+    for (std::size_t k = 0; k < poses.size(); ++k) {
+      const double t = 1600000000.0 + 0.1 * static_cast<double>(k);
+      w.writePointCloud(obm::test::boxRoomScan(kRoomLo, kRoomHi, poses[k], 360, -60.0, 60.0, 1.0),
+                        Isometry3d::Identity(), t, "LIDAR");
+      traj.push_back({t, poses[k]});
+    }
+    w.close();
+  }
+  obm::io::writeTumTrajectory(dir + "/vehicle_tum.txt", traj);
+  const auto sum =
+      OctomapExporter(baseOptions(dir + "/room.rawlog", dir + "/vehicle_tum.txt", dir + "/m.bt"))
+          .run();
+  EXPECT_EQ(sum.input_kind, "rawlog");
+  EXPECT_EQ(sum.frames, 3u);
+  EXPECT_EQ(sum.frames_integrated, 3u);
+  expectBoxRoom(OccupancyMap::read(dir + "/m.bt"));
 }
 
 }  // namespace

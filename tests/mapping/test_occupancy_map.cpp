@@ -114,9 +114,10 @@ TEST(OccupancyMap, WallWithFastDefaults) {
   // same geometry on a wall.
   const auto wall = obm::test::wallCloud(kWallDistance, 2.0, 1.0, 0.05);
   const Isometry3d T = sensorPose();
-  MappingParams p;  // defaults
+  MappingParams p;  // defaults, plus the pre-filter at the resolution
   p.resolution = kRes;
-  ASSERT_TRUE(p.discretize && p.lazy_update && p.prefilter_voxel > 0.0);
+  p.prefilter_voxel = kRes;
+  ASSERT_TRUE(p.discretize && p.lazy_update && p.batch_update);
   OccupancyMap map(p);
   const auto r = map.insert(wall, T);
   EXPECT_LT(r.rays, wall.size());  // the pre-filter merged points
@@ -438,6 +439,9 @@ TEST(MappingParams, LoadFromYaml) {
   MappingParams bad;
   bad.resolution = 0.0;
   EXPECT_THROW(OccupancyMap{bad}, obm::ConfigError);
+  MappingParams coarse;
+  coarse.prefilter_voxel = 2 * coarse.resolution;
+  EXPECT_THROW(coarse.validate(), obm::ConfigError);
 }
 
 }  // namespace

@@ -42,6 +42,8 @@ void MappingParams::validate() const {
         "occupancy_threshold", "must be between clamping_min and clamping_max");
   check(std::isfinite(prefilter_voxel) && prefilter_voxel >= 0.0, "prefilter_voxel",
         "must be >= 0 [m] (0 = off)");
+  check(prefilter_voxel <= resolution * (1.0 + 1e-9), "prefilter_voxel",
+        "must not exceed resolution (a coarser pre-filter leaves holes in surfaces)");
 }
 
 MappingParams MappingParams::load(const ConfigNode& node) {

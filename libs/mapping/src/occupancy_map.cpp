@@ -302,22 +302,21 @@ void OccupancyMap::writeBinary(const std::string& path) {
   writeFileAtomically(
       path,
       [&](std::ostream& os) {
-        bool ok = false;
-        if (m.kind == MapKind::Occupancy) {
-          ok = m.occ->writeBinaryConst(os);
-        } else {
-          // The binary format holds two bits per child (free / occupied / inner) and nothing
-          // else, so the bits of a ColorOcTree are those of the OcTree of its occupancy. The
-          // header is written with the id "OcTree" so that OcTree::readBinary accepts the file.
+        // OctoMap's binary layout: a text header, then two bits per child (free / occupied /
+        // inner) and nothing else, so the bits of a ColorOcTree are those of the OcTree of its
+        // occupancy. The header is written here (OctoMap's writeBinaryConst would print a
+        // debug line) with the id "OcTree", so that OcTree::readBinary accepts either map.
+        m.visit([&](auto& tree) {
           os << "# Octomap OcTree binary file\n";
-          os << "# written by obmslam from a ColorOcTree; colours are in the .ot export\n";
+          os << "# written by obmslam" << (m.kind == MapKind::Color ? " from a ColorOcTree" : "")
+             << "\n";
           os << "id OcTree\n";
-          os << "size " << m.color->size() << "\n";
-          os << "res " << std::setprecision(17) << m.color->getResolution() << "\n";
+          os << "size " << tree.size() << "\n";
+          os << "res " << std::setprecision(17) << tree.getResolution() << "\n";
           os << "data\n";
-          m.color->writeBinaryData(os);
-          ok = static_cast<bool>(os);
-        }
+          tree.writeBinaryData(os);
+        });
+        const bool ok = static_cast<bool>(os);
         if (!ok) throw IoError("cannot write '" + path + "': OctoMap's binary writer failed");
       },
       /*binary=*/true);

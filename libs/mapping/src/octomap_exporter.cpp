@@ -215,7 +215,7 @@ ExportSummary OctomapExporter::run() {
       bar.update(k + 1, status.str());
     }
   }
-  if (!sum.interrupted) bar.finish();
+  bar.finish();
   if (!map) map.emplace(opt_.mapping, MapKind::Occupancy);
   sum.integrate_s = integrate.seconds();
   sum.color = map->kind() == MapKind::Color;

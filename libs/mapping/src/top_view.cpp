@@ -107,14 +107,22 @@ TopViewInfo OccupancyMap::writeTopViewPng(const std::string& path,
     }
   });
 
-  info.z_low = std::numeric_limits<double>::infinity();
-  info.z_high = -std::numeric_limits<double>::infinity();
+  // The colour range spans the 1st to 99th percentile of the column heights, so that a few stray
+  // returns far below the ground or above the roofs do not squeeze everything else into one colour.
+  std::vector<double> heights;
   for (double z : top)
-    if (std::isfinite(z)) {
-      info.z_low = std::min(info.z_low, z);
-      info.z_high = std::max(info.z_high, z);
-    }
-  if (!std::isfinite(info.z_low)) info.z_low = info.z_high = 0.0;
+    if (std::isfinite(z)) heights.push_back(z);
+  if (heights.empty()) {
+    info.z_low = info.z_high = 0.0;
+  } else {
+    const auto at = [&](double q) {
+      const std::size_t k = static_cast<std::size_t>(q * static_cast<double>(heights.size() - 1));
+      std::nth_element(heights.begin(), heights.begin() + k, heights.end());
+      return heights[k];
+    };
+    info.z_low = at(0.01);
+    info.z_high = at(0.99);
+  }
   const double span = std::max(info.z_high - info.z_low, 1e-9);
 
   io::ColorImage img;

@@ -31,8 +31,11 @@ struct MappingParams {
   double occupancy_threshold = 0.5;  ///< a cell is occupied above this probability
 
   /// [m] voxel-grid down-sampling of each cloud in the sensor frame before ray casting (one ray per
-  /// voxel centroid); 0 disables it. Fewer rays is the main lever on insertion time.
-  double prefilter_voxel = 0.2;
+  /// voxel centroid, which also averages range noise); 0 disables it. At most `resolution`:
+  /// coarser pre-filtering would leave holes in surfaces. Off by default: with `discretize` the
+  /// beams are already one per end cell, and the filter costs about what it saves
+  /// (docs/benchmarks.md).
+  double prefilter_voxel = 0.0;
   /// Discretise the end points on the map grid first so each end cell is ray-cast once (OctoMap's
   /// `discretize` / computeDiscreteUpdate); slightly different free space than one ray per point.
   bool discretize = true;

@@ -169,8 +169,9 @@ class OccupancyMap {
   void write(const std::string& path);
 
   /// Writes the top view as an RGB PNG (libpng) atomically: each pixel column shows the height of
-  /// the highest occupied voxel (blue low → red high), light grey where the column is known free
-  /// only, white where unknown. Throws IoError on failure, ContractError for an empty map.
+  /// the highest occupied voxel (blue low → green → yellow → red high, see TopViewInfo::z_low),
+  /// light grey where the column is known free only, white where unknown. Throws IoError on
+  /// failure, ContractError for an empty map.
   TopViewInfo writeTopViewPng(const std::string& path, const TopViewOptions& options = {}) const;
 
  private:
