@@ -142,11 +142,11 @@ SimConfig SimConfig::load(const ConfigNode& root) {
   c.trajectory.type = tn.required<std::string>("type");
   auto& T = c.trajectory;
   if (T.type == "drive") {
-    T.drive = DriveParams::load(tn);
+    T.drive = DriveParams::load(without(tn, {"start_time"}));
   } else if (T.type == "walk") {
-    T.walk = WalkParams::load(tn);
+    T.walk = WalkParams::load(without(tn, {"start_time"}));
   } else if (T.type == "kitti") {
-    tn.checkKeys({"type", "file", "times", "calib", "max_poses"});
+    tn.checkKeys({"type", "file", "times", "calib", "max_poses", "start_time"});
     T.file = expandPath(tn.required<std::string>("file"), tn.where("file"));
     if (tn.has("times"))
       T.times_file = expandPath(tn.required<std::string>("times"), tn.where("times"));
@@ -161,6 +161,8 @@ SimConfig SimConfig::load(const ConfigNode& root) {
     throw ConfigError(tn.where("type") + ": unknown trajectory '" + T.type +
                       "' (expected drive, walk, kitti or tum)");
   }
+
+  if (T.type != "tum") tn.get("start_time", T.start_time);
 
   const ConfigNode on = root.child("output");
   on.checkKeys({"format", "rawlog", "dataset", "pictures", "rawlog_compression", "depth_scale",
@@ -333,6 +335,7 @@ struct SequenceSimulator::State {
   Trajectory traj;
   std::unique_ptr<RaycastScene> rc;
   Eigen::Isometry3d T_cam0_velo = KittiCalibration::kitti00().T_cam0_velo;
+  std::vector<double> rel_stamps;  // [s] frame times minus the first, exact
   bool prepared = false;
 };
 
@@ -388,7 +391,16 @@ void SequenceSimulator::prepare() {
     traj = generateDrive(sc.urban, s.scene, tc.drive);
   else if (tc.type == "walk")
     traj = generateWalk(sc.indoor, s.scene, tc.walk);
+  // Sequence times from 0, kept before any shift so that times.txt is exact (0.1, not 0.0999999
+  // after adding and removing 1.6e9 s).
+  s.rel_stamps.clear();
+  for (double t : traj.stamps) s.rel_stamps.push_back(t - traj.stamps.front());
+  if (tc.type != "tum" && !traj.empty()) {
+    const double shift = tc.start_time - traj.stamps.front();
+    for (double& t : traj.stamps) t += shift;
+  }
   traj = traj.head(cfg_.frames);
+  if (s.rel_stamps.size() > traj.size()) s.rel_stamps.resize(traj.size());
   if (traj.empty()) throw ConfigError(traj.source + ": the trajectory has no poses");
   // Every sensor position must be inside the modelled region.
   const auto& B = s.scene.bounds;
@@ -609,7 +621,7 @@ SimSummary SequenceSimulator::run(const SimOptions& opt) {
   std::vector<double> rel_t;
   std::vector<Eigen::Isometry3d> rel;
   for (std::size_t k = 0; k < n; ++k) {
-    rel_t.push_back(s.traj.stamps[k] - s.traj.stamps.front());
+    rel_t.push_back(s.rel_stamps[k]);
     // The first pose is the identity exactly (not up to round-off), as in KITTI's files.
     rel.push_back(k == 0 ? Eigen::Isometry3d::Identity() : P.front().inverse() * P[k]);
   }
@@ -626,7 +638,8 @@ SimSummary SequenceSimulator::run(const SimOptions& opt) {
       calib.has_P0 = true;
       calib.T_cam0_velo = s.T_cam0_velo;
       io::writeKittiCalib((T / "calib.txt").string(), calib);
-      io::writeTumTrajectory((T / "groundtruth.txt").string(), io::stampPoses(rel, rel_t));
+      // Stamped like the rawlog (times.txt holds the same stamps minus the first).
+      io::writeTumTrajectory((T / "groundtruth.txt").string(), io::stampPoses(rel, s.traj.stamps));
     } else {
       io::writeTumFileList((T / "depth.txt").string(), depth_list, "timestamp filename");
       if (!rgb_list.empty())

@@ -10,7 +10,8 @@
 ///   poses.txt             KITTI 3×4 per sweep: T_cam0_0_cam0_i (camera-0 frame, via calib Tr)
 ///   times.txt             [s] per sweep, from 0
 ///   calib.txt             P0 and Tr (velodyne → camera 0), KITTI sequence 00's values
-///   groundtruth.txt       TUM: t, T_lidar0_lidar_i (LiDAR frame, first pose = identity)
+///   groundtruth.txt       TUM: t, T_lidar0_lidar_i (LiDAR frame, first pose = identity), t as in
+///                         the rawlog (times.txt = t − t₀)
 ///   sequence.rawlog       MRPT CObservationPointCloud per sweep (sensorPose = identity: the
 ///                         vehicle frame is the LiDAR frame)
 /// Output, RGB-D (`output.format: tum`):
@@ -66,6 +67,10 @@ struct TrajectoryConfig {
   std::string times_file;     ///< kitti: times.txt ("" = 0.1 s steps)
   std::string calib_file;     ///< kitti: calib.txt with Tr ("" = KITTI 00's Tr)
   std::size_t max_poses = 0;  ///< kitti / tum: keep the first poses (0 = all)
+  /// [s] drive / walk / kitti: the first frame's time stamp (sequence time + this). UNIX time
+  /// of 2020-09-13 by default, so that rawlog time stamps are ordinary dates; TUM files keep
+  /// their own stamps.
+  double start_time = 1600000000.0;
 };
 
 /// `output:` section.
