@@ -326,12 +326,13 @@ TEST(SimulatorBadInput, UnknownPresetNamesItAndTheFoldersSearched) {
 
 TEST(SimulatorBadInput, EveryPresetLoadsAndTheSelfContainedOnesNeedNoExternalData) {
   for (const char* name : {"kitti_like_urban", "kitti00_gt", "indoor_tum_fr1_xyz",
-                           "indoor_tum_fr2_desk", "indoor_loop"}) {
+                           "indoor_tum_fr2_desk", "indoor_loop", "urban_vlp16"}) {
     const std::string path = findPreset(name);
     std::ifstream is(path);
     const std::string text((std::istreambuf_iterator<char>(is)), {});
     const bool external = text.find("${") != std::string::npos;
-    if (std::string(name) == "kitti_like_urban" || std::string(name) == "indoor_loop") {
+    if (std::string(name) == "kitti_like_urban" || std::string(name) == "indoor_loop" ||
+        std::string(name) == "urban_vlp16") {
       EXPECT_FALSE(external) << name;
     }
     if (external && !fs::exists(test::sharedDataDir())) continue;
