@@ -120,31 +120,46 @@ std::string csvRow(const EpochStats& s) {
 
 }  // namespace
 
+PairSampler objectPairSampler(std::vector<PointCloud> clouds, PairProtocol protocol) {
+  if (clouds.empty()) throw ContractError("objectPairSampler: no training clouds");
+  auto shared = std::make_shared<const std::vector<PointCloud>>(std::move(clouds));
+  return [shared, protocol](std::mt19937_64& rng) {
+    std::uniform_int_distribution<std::size_t> pick(0, shared->size() - 1);
+    const auto& c = (*shared)[pick(rng)];
+    return makePair(c, protocol, rng);
+  };
+}
+
+std::vector<RegistrationPair> objectValidationPairs(const std::vector<PointCloud>& clouds,
+                                                    const PairProtocol& protocol, int n,
+                                                    std::uint64_t seed) {
+  if (clouds.empty()) throw ContractError("objectValidationPairs: no validation clouds");
+  std::mt19937_64 rng(seed * 7919u + 17u);
+  std::vector<RegistrationPair> pairs;
+  for (int i = 0; i < n; ++i)
+    pairs.push_back(makePair(clouds[static_cast<std::size_t>(i) % clouds.size()], protocol, rng));
+  return pairs;
+}
+
 struct Trainer::Impl {
   TrainConfig cfg;
-  std::vector<PointCloud> train, val;
+  PairSampler sampler;
   std::string out;
   ObmNet model{nullptr};
   std::unique_ptr<torch::optim::Adam> optim;
   std::vector<RegistrationPair> val_pairs;
   long skipped = 0;  ///< batches skipped for non-finite loss or gradients
 
-  Impl(TrainConfig c, std::vector<PointCloud> tr, std::vector<PointCloud> va, std::string o)
-      : cfg(std::move(c)), train(std::move(tr)), val(std::move(va)), out(std::move(o)) {
-    if (train.empty()) throw ContractError("Trainer: no training clouds");
-    if (val.empty()) throw ContractError("Trainer: no validation clouds");
+  Impl(TrainConfig c, PairSampler s, std::vector<RegistrationPair> v, std::string o)
+      : cfg(std::move(c)), sampler(std::move(s)), out(std::move(o)), val_pairs(std::move(v)) {
+    if (!sampler) throw ContractError("Trainer: no pair sampler");
+    if (val_pairs.empty()) throw ContractError("Trainer: no validation pairs");
     torch::manual_seed(cfg.seed);
     ObmNetConfig mc = cfg.model;
     mc.seed = cfg.seed;
     model = ObmNet(mc);
     optim = std::make_unique<torch::optim::Adam>(
         model->parameters(), torch::optim::AdamOptions(cfg.lr).weight_decay(cfg.weight_decay));
-    // Fixed validation pairs: the same every epoch, so scores are comparable.
-    std::mt19937_64 rng(cfg.seed * 7919u + 17u);
-    for (int i = 0; i < cfg.val_pairs; ++i) {
-      const auto& c = val[static_cast<std::size_t>(i) % val.size()];
-      val_pairs.push_back(makePair(c, cfg.val_protocol, rng));
-    }
   }
 
   double lrForEpoch(int epoch) const {  // epoch is 1-based
@@ -161,8 +176,7 @@ struct Trainer::Impl {
 
   std::vector<RegistrationPair> drawPairs(std::mt19937_64& rng, int n) const {
     std::vector<RegistrationPair> pairs;
-    std::uniform_int_distribution<std::size_t> pick(0, train.size() - 1);
-    for (int i = 0; i < n; ++i) pairs.push_back(makePair(train[pick(rng)], cfg.protocol, rng));
+    for (int i = 0; i < n; ++i) pairs.push_back(sampler(rng));
     return pairs;
   }
 
@@ -278,9 +292,17 @@ struct Trainer::Impl {
 };
 
 Trainer::Trainer(TrainConfig config, std::vector<PointCloud> train_clouds,
-                 std::vector<PointCloud> val_clouds, std::string out_dir)
-    : impl_(std::make_unique<Impl>(std::move(config), std::move(train_clouds),
-                                   std::move(val_clouds), std::move(out_dir))) {}
+                 std::vector<PointCloud> val_clouds, std::string out_dir) {
+  auto val = objectValidationPairs(val_clouds, config.val_protocol, config.val_pairs, config.seed);
+  auto sampler = objectPairSampler(std::move(train_clouds), config.protocol);
+  impl_ = std::make_unique<Impl>(std::move(config), std::move(sampler), std::move(val),
+                                 std::move(out_dir));
+}
+
+Trainer::Trainer(TrainConfig config, PairSampler sampler, std::vector<RegistrationPair> val_pairs,
+                 std::string out_dir)
+    : impl_(std::make_unique<Impl>(std::move(config), std::move(sampler), std::move(val_pairs),
+                                   std::move(out_dir))) {}
 
 Trainer::~Trainer() = default;
 

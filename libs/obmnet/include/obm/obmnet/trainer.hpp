@@ -65,10 +65,29 @@ struct ValidationScores {
 ///   best.pt         best model on the validation split (a model file for loadModel)
 ///   train_log.csv   one row per epoch
 ///   config.yaml     the configuration actually used
+/// Draws one training pair; called with the trainer's generator (seeded per epoch, so a resumed
+/// run sees the same pairs).
+using PairSampler = std::function<RegistrationPair(std::mt19937_64& rng)>;
+
+/// The sampler of the object-level protocols: a random cloud of `clouds`, made into a pair by
+/// `protocol` (makePair).
+PairSampler objectPairSampler(std::vector<PointCloud> clouds, PairProtocol protocol);
+
+/// `n` validation pairs from `clouds` (cycled) with `protocol`, from a fixed seed.
+std::vector<RegistrationPair> objectValidationPairs(const std::vector<PointCloud>& clouds,
+                                                    const PairProtocol& protocol, int n,
+                                                    std::uint64_t seed);
+
 class Trainer {
  public:
+  /// Object-level training: pairs made from `train_clouds` / `val_clouds` by the config's
+  /// protocols.
   Trainer(TrainConfig config, std::vector<PointCloud> train_clouds,
           std::vector<PointCloud> val_clouds, std::string out_dir);
+  /// Any pair source (e.g. KITTI scan pairs): `sampler` draws training pairs, `val_pairs` are
+  /// scored after every epoch.
+  Trainer(TrainConfig config, PairSampler sampler, std::vector<RegistrationPair> val_pairs,
+          std::string out_dir);
   ~Trainer();
   Trainer(const Trainer&) = delete;
   Trainer& operator=(const Trainer&) = delete;

@@ -1,0 +1,159 @@
+#include "bench.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <sstream>
+
+#include "obm/core/atomic_file.hpp"
+#include "obm/core/errors.hpp"
+#include "obm/core/progress.hpp"
+#include "obm/core/timer.hpp"
+#include "obm/io/point_cloud_io.hpp"
+
+namespace fs = std::filesystem;
+
+namespace obm::bench {
+
+std::vector<obmnet::RegistrationPair> readPairFolder(const std::string& dir) {
+  if (!fs::is_directory(dir)) throw IoError(dir + ": pair folder not found");
+  const std::string gt_path = dir + "/gt.txt";
+  std::ifstream in(gt_path);
+  if (!in) throw IoError(gt_path + ": cannot open (every pair folder needs a gt.txt)");
+  std::vector<obmnet::RegistrationPair> pairs;
+  std::string line;
+  std::size_t line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream is(line);
+    std::string id;
+    std::array<double, 12> v{};
+    if (!(is >> id)) continue;
+    for (auto& x : v)
+      if (!(is >> x))
+        throw FormatError(gt_path, line_no,
+                          "expected an id and 12 numbers (row-major 3×4 T_tgt_src)");
+    std::string extra;
+    if (is >> extra) throw FormatError(gt_path, line_no, "more than 13 columns");
+    obmnet::RegistrationPair p;
+    p.name = id;
+    p.T_target_source = fromRowMajor3x4(v);
+    if (!p.T_target_source.matrix().allFinite())
+      throw FormatError(gt_path, line_no, "non-finite pose");
+    // The id may be written with or without zero padding: try the file names as they exist.
+    std::string src, tgt;
+    for (const std::string& prefix : {std::string("pair_"), std::string()}) {
+      const std::string s = dir + "/" + prefix + id + "_src.ply",
+                        t = dir + "/" + prefix + id + "_tgt.ply";
+      if (fs::exists(s) && fs::exists(t)) {
+        src = s;
+        tgt = t;
+        break;
+      }
+    }
+    if (src.empty())
+      throw IoError(gt_path + ":" + std::to_string(line_no) + ": no pair_" + id +
+                    "_src.ply / pair_" + id + "_tgt.ply (or " + id + "_src.ply / " + id +
+                    "_tgt.ply) in " + dir);
+    p.source = io::readPointCloud(src);
+    p.target = io::readPointCloud(tgt);
+    if (p.source.empty() || p.target.empty())
+      throw FormatError(src, 0, "empty cloud in pair " + id);
+    pairs.push_back(std::move(p));
+  }
+  if (pairs.empty()) throw FormatError(gt_path, 0, "no pairs listed");
+  return pairs;
+}
+
+void writePairFolder(const std::string& dir, const std::vector<obmnet::RegistrationPair>& pairs) {
+  ensureDirectory(dir);
+  std::ostringstream gt;
+  gt << std::setprecision(17);
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    char id[16];
+    std::snprintf(id, sizeof(id), "%04zu", i);
+    io::writePointCloud(dir + "/pair_" + id + "_src.ply", pairs[i].source, true);
+    io::writePointCloud(dir + "/pair_" + id + "_tgt.ply", pairs[i].target, true);
+    gt << id;
+    for (double x : toRowMajor3x4(pairs[i].T_target_source)) gt << ' ' << x;
+    gt << '\n';
+  }
+  writeTextAtomically(dir + "/gt.txt", gt.str());
+}
+
+std::vector<MethodScores> runBenchmark(const std::vector<obmnet::RegistrationPair>& pairs,
+                                       const std::vector<Method>& methods,
+                                       const eval::RecallThresholds& recall, bool progress) {
+  std::vector<MethodScores> out;
+  for (const auto& m : methods) {
+    eval::RegistrationAccumulator acc(recall);
+    MethodScores s;
+    s.name = m.name;
+    ProgressBar bar(pairs.size(), m.name, "pairs");
+    bar.setEnabled(progress);
+    for (const auto& p : pairs) {
+      Timer t;
+      Isometry3d T = Isometry3d::Identity();
+      try {
+        T = m.fn(p.source, p.target);
+      } catch (const std::exception&) {
+        ++s.failures;
+      }
+      acc.add(T, p.T_target_source, t.ms());
+      bar.tick();
+    }
+    s.summary = acc.summary();
+    std::ostringstream st;
+    st << std::setprecision(4) << "MIE(R) " << s.summary.mie_r << " deg, recall "
+       << s.summary.recall;
+    bar.finish(st.str());
+    out.push_back(s);
+  }
+  return out;
+}
+
+std::string markdownTable(const std::vector<MethodScores>& scores, const std::string& title) {
+  std::ostringstream os;
+  if (!title.empty()) os << "**" << title << "**\n\n";
+  os << "| method | MAE(R) ° | MAE(t) | MIE(R) ° | MIE(t) | recall | median ms |\n"
+     << "|---|---:|---:|---:|---:|---:|---:|\n";
+  char buf[256];
+  for (const auto& s : scores) {
+    const auto& r = s.summary;
+    std::snprintf(buf, sizeof(buf), "| %s | %.4f | %.5f | %.4f | %.5f | %.1f %% | %.1f |",
+                  s.name.c_str(), r.mae_r, r.mae_t, r.mie_r, r.mie_t, 100.0 * r.recall,
+                  r.median_ms);
+    os << buf;
+    if (s.failures) os << " (" << s.failures << " failed)";
+    os << "\n";
+  }
+  return os.str();
+}
+
+std::string jsonReport(std::size_t n_pairs, const std::vector<MethodScores>& scores,
+                       const eval::RecallThresholds& recall, const std::string& info) {
+  nlohmann::json j;
+  j["pairs"] = n_pairs;
+  j["recall_thresholds"] = {{"max_rre_deg", recall.max_rre_deg}, {"max_rte", recall.max_rte}};
+  j["info"] = info;
+  nlohmann::json methods = nlohmann::json::object();
+  for (const auto& s : scores) {
+    const auto& r = s.summary;
+    methods[s.name] = {
+        {"mae_r", r.mae_r},     {"mae_t", r.mae_t},      {"mie_r", r.mie_r},
+        {"mie_t", r.mie_t},     {"recall", r.recall},    {"median_ms", r.median_ms},
+        {"rmse_r", r.rmse_r},   {"rmse_t", r.rmse_t},    {"median_rre_deg", r.median_rre_deg},
+        {"mean_ms", r.mean_ms}, {"failures", s.failures}};
+  }
+  j["methods"] = methods;
+  return j.dump(2) + "\n";
+}
+
+}  // namespace obm::bench

@@ -1,0 +1,40 @@
+#pragma once
+/// \file peers.hpp
+/// Registration methods compared by obm-bench. Each is a function (source, target) →
+/// T_target_source; the classical peers of Open3D (ICP, FGR, RANSAC + FPFH) are compiled in only
+/// when Open3D is found.
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "obm/core/point_cloud.hpp"
+#include "obm/core/se3.hpp"
+
+namespace obm::bench {
+
+using RegisterFn = std::function<Isometry3d(const PointCloud& source, const PointCloud& target)>;
+
+struct Method {
+  std::string name;
+  RegisterFn fn;
+};
+
+/// Parameters of the Open3D peers, in the units of the clouds (unit sphere for objects).
+struct Open3dParams {
+  double voxel = 0.05;            ///< down-sampling before features
+  double normal_radius = 0.1;     ///< normals (point-to-plane ICP, FPFH)
+  double feature_radius = 0.25;   ///< FPFH
+  double icp_max_distance = 0.1;  ///< ICP correspondence distance
+  double ransac_max_distance = 0.075;
+  int ransac_iterations = 100000;
+  double ransac_confidence = 0.999;
+};
+
+/// Whether this build has the Open3D peers.
+bool haveOpen3d();
+
+/// Open3D's point-to-plane ICP from identity, FGR (FPFH), RANSAC (FPFH), and FGR followed by ICP.
+/// Empty when Open3D is not available.
+std::vector<Method> open3dMethods(const Open3dParams& params);
+
+}  // namespace obm::bench

@@ -1,0 +1,108 @@
+// The classical peers of obm-bench, run in-process through Open3D 0.16 (Debian libopen3d-dev).
+#include "peers.hpp"
+
+#ifdef OBM_HAVE_OPEN3D
+#include <open3d/geometry/KDTreeSearchParam.h>
+#include <open3d/geometry/PointCloud.h>
+#include <open3d/pipelines/registration/FastGlobalRegistration.h>
+#include <open3d/pipelines/registration/Feature.h>
+#include <open3d/pipelines/registration/Registration.h>
+#include <open3d/utility/Logging.h>
+#endif
+
+namespace obm::bench {
+
+#ifdef OBM_HAVE_OPEN3D
+namespace reg = open3d::pipelines::registration;
+
+namespace {
+
+struct Prepared {
+  std::shared_ptr<open3d::geometry::PointCloud> full, down;
+  std::shared_ptr<reg::Feature> fpfh;
+};
+
+Prepared prepare(const PointCloud& c, const Open3dParams& p, bool features) {
+  Prepared out;
+  out.full = std::make_shared<open3d::geometry::PointCloud>();
+  out.full->points_.reserve(c.size());
+  for (const auto& q : c.points) out.full->points_.push_back(q.cast<double>());
+  out.full->EstimateNormals(open3d::geometry::KDTreeSearchParamHybrid(p.normal_radius, 30));
+  if (features) {
+    out.down = out.full->VoxelDownSample(p.voxel);
+    out.down->EstimateNormals(open3d::geometry::KDTreeSearchParamHybrid(p.normal_radius, 30));
+    out.fpfh = reg::ComputeFPFHFeature(
+        *out.down, open3d::geometry::KDTreeSearchParamHybrid(p.feature_radius, 100));
+  }
+  return out;
+}
+
+Isometry3d toIso(const Eigen::Matrix4d& M) {
+  Isometry3d T = Isometry3d::Identity();
+  T.matrix() = M;
+  return T;
+}
+
+Eigen::Matrix4d icp(const Prepared& s, const Prepared& t, const Eigen::Matrix4d& init,
+                    const Open3dParams& p) {
+  return reg::RegistrationICP(*s.full, *t.full, p.icp_max_distance, init,
+                              reg::TransformationEstimationPointToPlane(),
+                              reg::ICPConvergenceCriteria(1e-7, 1e-7, 60))
+      .transformation_;
+}
+
+Eigen::Matrix4d fgr(const Prepared& s, const Prepared& t, const Open3dParams& p) {
+  reg::FastGlobalRegistrationOption o;
+  o.maximum_correspondence_distance_ = p.voxel * 0.5;
+  return reg::FastGlobalRegistrationBasedOnFeatureMatching(*s.down, *t.down, *s.fpfh, *t.fpfh, o)
+      .transformation_;
+}
+
+Eigen::Matrix4d ransac(const Prepared& s, const Prepared& t, const Open3dParams& p) {
+  reg::CorrespondenceCheckerBasedOnEdgeLength edge(0.9);
+  reg::CorrespondenceCheckerBasedOnDistance dist(p.ransac_max_distance);
+  return reg::RegistrationRANSACBasedOnFeatureMatching(
+             *s.down, *t.down, *s.fpfh, *t.fpfh, true, p.ransac_max_distance,
+             reg::TransformationEstimationPointToPoint(false), 3, {edge, dist},
+             reg::RANSACConvergenceCriteria(p.ransac_iterations, p.ransac_confidence))
+      .transformation_;
+}
+
+}  // namespace
+
+bool haveOpen3d() {
+  return true;
+}
+
+std::vector<Method> open3dMethods(const Open3dParams& p) {
+  open3d::utility::SetVerbosityLevel(open3d::utility::VerbosityLevel::Error);
+  std::vector<Method> m;
+  m.push_back({"o3d_icp", [p](const PointCloud& s, const PointCloud& t) {
+                 return toIso(icp(prepare(s, p, false), prepare(t, p, false),
+                                  Eigen::Matrix4d::Identity(), p));
+               }});
+  m.push_back({"o3d_fgr", [p](const PointCloud& s, const PointCloud& t) {
+                 return toIso(fgr(prepare(s, p, true), prepare(t, p, true), p));
+               }});
+  m.push_back({"o3d_fgr+icp", [p](const PointCloud& s, const PointCloud& t) {
+                 const auto S = prepare(s, p, true), T = prepare(t, p, true);
+                 return toIso(icp(S, T, fgr(S, T, p), p));
+               }});
+  m.push_back({"o3d_ransac", [p](const PointCloud& s, const PointCloud& t) {
+                 return toIso(ransac(prepare(s, p, true), prepare(t, p, true), p));
+               }});
+  return m;
+}
+
+#else
+
+bool haveOpen3d() {
+  return false;
+}
+std::vector<Method> open3dMethods(const Open3dParams&) {
+  return {};
+}
+
+#endif
+
+}  // namespace obm::bench
