@@ -1,0 +1,52 @@
+#pragma once
+/// \file confidence.hpp
+/// Confidence of an alignment (docs/registration.md, "Confidence"): the Gauss–Newton Hessian of
+/// the weighted point-to-plane cost at the solution, the residual variance, the information
+/// Ω = H/σ², and the scalar quality used to reject bad matches.
+#include <cstddef>
+#include <vector>
+
+#include "obm/core/point_cloud.hpp"
+#include "obm/core/se3.hpp"
+#include "obm/registration/params.hpp"
+#include "obm/registration/prepared_target.hpp"
+
+namespace obm {
+
+/// Residual statistics of source points against a prepared target at a pose.
+struct AlignmentStats {
+  std::size_t num_points = 0;           ///< source points evaluated
+  std::size_t num_correspondences = 0;  ///< points with a target partner within the fine gate
+  std::size_t num_inliers = 0;          ///< correspondences with |r| <= inlier_threshold
+  double overlap = 0.0;                 ///< num_correspondences / num_points
+  double inlier_ratio = 0.0;            ///< num_inliers / num_points
+  double rmse = 0.0;         ///< [m] RMS of the unweighted residual norms of the correspondences
+  double weight_sum = 0.0;   ///< Σ ω_i m_i (m_i = residual dimension: 1 plane, 3 point)
+  double sigma2 = 0.0;       ///< [m²] Σ ω_i ‖r_i‖² / (Σ ω_i m_i − 6), before the floor
+  double sigma2_used = 0.0;  ///< [m²] max(sigma2, min_sigma²)
+  /// H = Σ ω_i J_iᵀ J_i, right (source-frame) perturbation, [translation; rotation].
+  Matrix6d hessian = Matrix6d::Zero();
+  Matrix6d information = Matrix6d::Zero();  ///< information_scale · H / σ²_used
+  /// Smallest eigenvalue of D·H·D / Σω with D = diag(1, 1, 1, 1/L, 1/L, 1/L), L the RMS
+  /// distance of the paired source points from the source origin: unit-free, in [0, 1].
+  double conditioning = 0.0;
+  bool valid = false;  ///< Σ ω_i m_i > 6: enough weighted residuals for σ²
+};
+
+/// Evaluates source points (source frame) against `target` at `T_target_source` with the
+/// residual model of `icp` (fine gate, metric, fallback, kernel) and per-point prior weights
+/// `point_weights` (nullptr = all 1; else one per point, >= 0). ω_i = point_weight_i ·
+/// robust_weight(r_i). Deterministic and independent of icp.threads.
+AlignmentStats evaluateAlignment(const std::vector<Vector3f>& source_points,
+                                 const std::vector<double>* point_weights,
+                                 const PreparedTarget& target, const Isometry3d& T_target_source,
+                                 const IcpParams& icp, const ConfidenceParams& confidence);
+
+/// Scalar quality in [0, 1]:
+///   q = min(1, inlier_ratio/ρ_ref) · max(0, 1 − rmse/d_max) · min(1, overlap/o_ref)
+///       · min(1, conditioning/λ_ref)
+/// with d_max the fine correspondence gate.
+double matchQuality(double inlier_ratio, double rmse, double overlap, double conditioning,
+                    double max_correspondence_distance, const ConfidenceParams& confidence);
+
+}  // namespace obm

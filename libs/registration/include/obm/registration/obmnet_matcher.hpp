@@ -1,0 +1,77 @@
+#pragma once
+/// \file obmnet_matcher.hpp
+/// Scan matchers around the OBMNet network (libs/obmnet's ObmNetRegistrar, kept behind a pimpl so
+/// LibTorch never reaches this header): OBMNet alone, and OBMNet followed by point-to-plane ICP.
+/// The information matrix weights the residuals of the network's sampled source points by
+/// α·w_i inside the sampled overlap and by w_i outside (docs/registration.md, "Confidence").
+/// In a build without LibTorch the constructors throw ConfigError.
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "obm/registration/scan_matcher.hpp"
+
+namespace obm {
+
+class ConfigNode;
+
+/// Settings of the network stage.
+struct ObmNetMatcherParams {
+  std::string model_path;  ///< model file written by obm-train (required)
+  int num_points = 0;      ///< points sampled per cloud; 0 = what the model was trained with
+  int threads = 2;         ///< LibTorch intra-op threads
+  std::uint64_t seed = 0;  ///< seeds the network's point sampling
+  /// Transform the source by the initial guess before the network and compose the network's
+  /// (small) correction with it: T = ΔT · T_init. The natural choice for odometry, where the
+  /// constant-velocity guess is good; false = the network sees the raw clouds and T_init is
+  /// ignored by ObmNetMatcher.
+  bool pre_align = true;
+  /// ObmNetIcpMatcher: start ICP from T_init instead of the network's pose when T_init pairs more
+  /// source points within the first ICP gate (guards odometry against a network failure).
+  bool keep_init_if_better = true;
+
+  /// Reads the keys of `node` (model_path required; unknown keys rejected). A relative
+  /// model_path is resolved against the folder of the YAML file.
+  static ObmNetMatcherParams load(const ConfigNode& node);
+};
+
+/// OBMNet alone: the pose is the network's; the confidence is evaluated at it.
+class ObmNetMatcher : public ScanMatcher {
+ public:
+  /// Loads the model (IoError / FormatError naming the file). `icp` supplies the residual model
+  /// used to evaluate the confidence (fine gate, kernel, normals, voxels).
+  ObmNetMatcher(const ObmNetMatcherParams& params, const IcpParams& icp = IcpParams(),
+                const ConfidenceParams& confidence = ConfidenceParams());
+  ~ObmNetMatcher() override;
+  std::string name() const override { return "obmnet"; }
+  /// The loaded model's summary.
+  std::string describe() const;
+
+ protected:
+  MatchResult impl_match(const PointCloud& source, const PreparedTarget& target,
+                         const Isometry3d& T_target_source_init) const override;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// OBMNet for the coarse pose, then point-to-plane ICP refinement.
+class ObmNetIcpMatcher : public ScanMatcher {
+ public:
+  ObmNetIcpMatcher(const ObmNetMatcherParams& params, const IcpParams& icp = IcpParams(),
+                   const ConfidenceParams& confidence = ConfidenceParams());
+  ~ObmNetIcpMatcher() override;
+  std::string name() const override { return "obmnet+icp"; }
+  std::string describe() const;
+
+ protected:
+  MatchResult impl_match(const PointCloud& source, const PreparedTarget& target,
+                         const Isometry3d& T_target_source_init) const override;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace obm

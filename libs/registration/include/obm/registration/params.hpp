@@ -1,0 +1,103 @@
+#pragma once
+/// \file params.hpp
+/// Parameters of the scan matchers: point-to-plane ICP (IcpParams) and the confidence model
+/// (ConfidenceParams). Plain structs with in-class defaults (tuned for voxelised LiDAR scans in
+/// metres); each is loaded from YAML in exactly one place, its `load`. See docs/registration.md
+/// and config/registration/*.yaml.
+#include <cstdint>
+#include <string>
+
+#include "obm/registration/prepared_target.hpp"
+#include "obm/registration/robust_kernel.hpp"
+
+namespace obm {
+
+class ConfigNode;
+
+/// Residual of one correspondence.
+enum class IcpMetric {
+  PointToPlane,  ///< r = nᵀ(T·p − q) with the target normal n (Chen & Medioni 1992)
+  PointToPoint,  ///< r = T·p − q (Besl & McKay 1992)
+};
+
+/// Normal-equation solver of one ICP iteration.
+enum class IcpSolver {
+  GaussNewton,         ///< δ = −(H + εI)⁻¹g, always accepted
+  LevenbergMarquardt,  ///< δ = −(H + λ·diag H)⁻¹g, accepted only when the robust cost decreases
+};
+
+/// Point-to-plane ICP (and the residual model used to evaluate any alignment).
+struct IcpParams {
+  // --- preprocessing -------------------------------------------------------------------------
+  double source_voxel = 0.0;    ///< [m] voxel down-sampling of the source before matching; 0 = off
+  double target_voxel = 0.0;    ///< [m] voxel down-sampling of the target (PreparedTarget); 0 = off
+  int normal_neighbors = 15;    ///< k nearest neighbours of the target's PCA normals
+  double min_planarity = 0.05;  ///< normals of less planar neighbourhoods are not trusted [-]
+
+  // --- correspondences -----------------------------------------------------------------------
+  /// [m] final (fine) gate: a source point pairs with its nearest target point only within this.
+  double max_correspondence_distance = 1.0;
+  /// [m] coarse gate the iterations start from (annealing); 0 = start at the fine gate. Each time
+  /// the iterations settle, the gate shrinks by `anneal_factor` until it reaches the fine one.
+  double initial_max_correspondence_distance = 0.0;
+  double anneal_factor = 0.5;  ///< gate multiplier per annealing stage, in (0, 1)
+
+  // --- cost ----------------------------------------------------------------------------------
+  IcpMetric metric = IcpMetric::PointToPlane;
+  /// With point-to-plane: where the target normal is not trusted, use the point-to-point residual
+  /// instead of dropping the correspondence.
+  bool point_to_point_fallback = true;
+  RobustKernel kernel = RobustKernel::Huber;
+  double kernel_scale = 0.1;  ///< [m] scale c of the robust kernel
+
+  // --- solver --------------------------------------------------------------------------------
+  IcpSolver solver = IcpSolver::LevenbergMarquardt;
+  int max_iterations = 50;              ///< correspondence-search iterations (all stages)
+  double translation_tolerance = 1e-4;  ///< [m] converged when the step is below this ...
+  double rotation_tolerance = 1e-4 * 0.017453292519943295;  ///< [rad] ... and this (YAML: _deg)
+  int min_correspondences = 30;  ///< fewer points or correspondences is an expected failure
+  int threads = 2;               ///< correspondence-search threads (results do not depend on it)
+
+  /// The PreparedTarget options these parameters imply.
+  PreparedTarget::Options targetOptions() const;
+  /// Throws ContractError naming the first out-of-range value.
+  void validate() const;
+  /// Reads the keys of `node` (all optional; unknown keys rejected; `rotation_tolerance_deg` in
+  /// degrees; `kernel`, `metric`, `solver` by name) and validates. Throws ConfigError naming
+  /// file and key.
+  static IcpParams load(const ConfigNode& node);
+};
+
+/// Confidence of a match: information matrix and scalar quality (docs/registration.md).
+struct ConfidenceParams {
+  /// [m] a correspondence whose residual is within this counts as an inlier (inlier_ratio).
+  double inlier_threshold = 0.2;
+  /// [m] floor of the residual standard deviation σ, so that a noise-free (or over-fitted)
+  /// match does not produce an unbounded information matrix.
+  double min_sigma = 0.005;
+  /// Multiplies Ω. Residuals of neighbouring points are correlated, which the textbook Ω = H/σ²
+  /// ignores (it is over-confident for dense scans); a back-end may want < 1. [-]
+  double information_scale = 1.0;
+  /// Quality: inlier_ratio at or above this gets full credit. [-]
+  double inlier_ratio_ref = 0.5;
+  /// Quality: overlap at or above this gets full credit. [-]
+  double overlap_ref = 0.5;
+  /// Quality: normalised smallest Hessian eigenvalue at or above this gets full credit. [-]
+  double conditioning_ref = 0.02;
+  /// Status Degenerate when the normalised smallest Hessian eigenvalue is below this. [-]
+  double degeneracy_threshold = 1e-3;
+
+  /// Throws ContractError naming the first out-of-range value.
+  void validate() const;
+  /// Reads the keys of `node` (all optional; unknown keys rejected) and validates.
+  static ConfidenceParams load(const ConfigNode& node);
+};
+
+/// Parses "point_to_plane" / "point_to_point"; throws ConfigError prefixed with `where`.
+IcpMetric parseIcpMetric(const std::string& name, const std::string& where = "metric");
+std::string toString(IcpMetric metric);
+/// Parses "gauss_newton" / "levenberg_marquardt" (or "gn" / "lm").
+IcpSolver parseIcpSolver(const std::string& name, const std::string& where = "solver");
+std::string toString(IcpSolver solver);
+
+}  // namespace obm

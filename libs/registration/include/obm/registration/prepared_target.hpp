@@ -1,0 +1,66 @@
+#pragma once
+/// \file prepared_target.hpp
+/// A target cloud made ready for repeated registration: optional voxel down-sampling, a KD-tree
+/// (nanoflann, kept out of this header) and PCA surface normals. Building it is the expensive part
+/// of point-to-plane ICP, so the mapping front-end builds one per local map / keyframe and matches
+/// many sources against it. Immutable after construction: safe to share between threads.
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "obm/core/point_cloud.hpp"
+
+namespace obm {
+
+class ConfigNode;
+
+/// How a PreparedTarget is built (also PreparedTarget::Options).
+struct PreparedTargetOptions {
+  double voxel = 0.0;         ///< [m] voxel-grid down-sampling edge; 0 = keep every point
+  int normal_neighbors = 15;  ///< k nearest neighbours (self included) of the PCA normal
+  /// A normal is trusted when the neighbourhood is planar: (λ₁ − λ₀)/λ₂ >= this, with
+  /// λ₀ <= λ₁ <= λ₂ the covariance eigenvalues (0 for lines and isotropic blobs, 1 for a disc).
+  double min_planarity = 0.05;
+  int threads = 2;  ///< threads of the normal estimation
+};
+
+class PreparedTarget {
+ public:
+  using Options = PreparedTargetOptions;
+
+  /// Removes non-finite points, down-samples, builds the KD-tree and the normals. Throws
+  /// ContractError for options out of range (normal_neighbors < 3, threads < 1, voxel < 0).
+  explicit PreparedTarget(const PointCloud& target, const Options& options = Options());
+  ~PreparedTarget();
+  PreparedTarget(PreparedTarget&&) noexcept;
+  PreparedTarget& operator=(PreparedTarget&&) noexcept;
+  PreparedTarget(const PreparedTarget&) = delete;
+  PreparedTarget& operator=(const PreparedTarget&) = delete;
+
+  /// The (down-sampled, finite) target points the tree indexes.
+  const PointCloud& cloud() const;
+  std::size_t size() const;
+  bool empty() const;
+  /// Unit normal per point, oriented towards the frame origin (the sensor); meaningful only where
+  /// normalValid() is 1.
+  const std::vector<Vector3f>& normals() const;
+  /// 1 where the neighbourhood was planar enough for a point-to-plane residual, else 0.
+  const std::vector<std::uint8_t>& normalValid() const;
+  const Options& options() const;
+
+  /// Nearest target point to `query` within `max_distance` [m]: its index and squared distance.
+  /// Returns false when there is none that close.
+  bool nearest(const Vector3f& query, double max_distance, std::size_t& index,
+               float& distance2) const;
+
+  /// The (up to) k nearest target points, sorted by distance; returns how many were found.
+  std::size_t knn(const Vector3f& query, std::size_t k, std::vector<std::size_t>& indices,
+                  std::vector<float>& distances2) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace obm

@@ -1,0 +1,182 @@
+#include "obm/registration/confidence.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+
+#include "obm/core/errors.hpp"
+#include "obm/registration/match_result.hpp"
+#include "parallel.hpp"
+
+namespace obm {
+namespace {
+
+constexpr std::size_t kChunk = 4096;
+
+/// Per-chunk partial sums (summed in chunk order: bit-identical for any thread count).
+struct Partial {
+  Matrix6d H = Matrix6d::Zero();
+  double weight_sum = 0.0;   // Σ ω m
+  double omega_sum = 0.0;    // Σ ω
+  double weighted_r2 = 0.0;  // Σ ω ‖r‖²
+  double weighted_p2 = 0.0;  // Σ ω ‖p‖²
+  double r2 = 0.0;           // Σ ‖r‖²
+  std::size_t correspondences = 0;
+  std::size_t inliers = 0;
+};
+
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d S;
+  S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return S;
+}
+
+}  // namespace
+
+const char* toString(MatchStatus status) {
+  switch (status) {
+    case MatchStatus::Ok:
+      return "ok";
+    case MatchStatus::EmptyInput:
+      return "empty_input";
+    case MatchStatus::TooFewPoints:
+      return "too_few_points";
+    case MatchStatus::TooFewCorrespondences:
+      return "too_few_correspondences";
+    case MatchStatus::NotConverged:
+      return "not_converged";
+    case MatchStatus::Degenerate:
+      return "degenerate";
+  }
+  return "unknown";
+}
+
+Matrix6d informationThetaToG2o(const Matrix6d& omega_theta) {
+  // Ω_q = Jᵀ Ω_θ J with J = diag(I, 2I): scale rows and columns 3..5 by 2.
+  Matrix6d out = omega_theta;
+  out.block<3, 6>(3, 0) *= 2.0;
+  out.block<6, 3>(0, 3) *= 2.0;
+  return out;
+}
+
+Matrix6d informationG2oToTheta(const Matrix6d& omega_q) {
+  Matrix6d out = omega_q;
+  out.block<3, 6>(3, 0) *= 0.5;
+  out.block<6, 3>(0, 3) *= 0.5;
+  return out;
+}
+
+AlignmentStats evaluateAlignment(const std::vector<Vector3f>& source_points,
+                                 const std::vector<double>* point_weights,
+                                 const PreparedTarget& target, const Isometry3d& T_target_source,
+                                 const IcpParams& icp, const ConfidenceParams& confidence) {
+  OBM_ASSERT(!point_weights || point_weights->size() == source_points.size(),
+             "evaluateAlignment: one prior weight per source point");
+  AlignmentStats s;
+  s.num_points = source_points.size();
+  if (source_points.empty() || target.empty()) return s;
+
+  const Eigen::Matrix3d R = T_target_source.linear();
+  const Eigen::Vector3d t = T_target_source.translation();
+  const auto& tgt = target.cloud().points;
+  const auto& normals = target.normals();
+  const auto& valid = target.normalValid();
+  const bool plane_metric = icp.metric == IcpMetric::PointToPlane;
+  const double gate = icp.max_correspondence_distance;
+  const double inlier2 = confidence.inlier_threshold * confidence.inlier_threshold;
+
+  std::vector<Partial> partials(detail::numChunks(source_points.size(), kChunk));
+  detail::parallelChunks(
+      source_points.size(), kChunk, icp.threads, [&](std::size_t c, std::size_t b, std::size_t e) {
+        Partial& P = partials[c];
+        for (std::size_t i = b; i < e; ++i) {
+          const Eigen::Vector3d p = source_points[i].cast<double>();
+          const Eigen::Vector3d pt = R * p + t;
+          std::size_t j = 0;
+          float d2 = 0.f;
+          if (!target.nearest(pt.cast<float>(), gate, j, d2)) continue;
+          const Eigen::Vector3d q = tgt[j].cast<double>();
+          const double prior = point_weights ? (*point_weights)[i] : 1.0;
+          double r2 = 0.0;
+          if (plane_metric && valid[j]) {
+            const Eigen::Vector3d n = normals[j].cast<double>();
+            const double r = n.dot(pt - q);
+            r2 = r * r;
+            const double w = prior * robustWeight(icp.kernel, r, icp.kernel_scale);
+            // Right perturbation T·Exp(δ): ∂r/∂ρ = (Rᵀn)ᵀ, ∂r/∂θ = (p × Rᵀn)ᵀ.
+            const Eigen::Vector3d ns = R.transpose() * n;
+            Vector6d J;
+            J << ns, p.cross(ns);
+            P.H.noalias() += w * J * J.transpose();
+            P.weight_sum += w;
+            P.omega_sum += w;
+            P.weighted_r2 += w * r2;
+            P.weighted_p2 += w * p.squaredNorm();
+          } else if (!plane_metric || icp.point_to_point_fallback) {
+            const Eigen::Vector3d rv = pt - q;
+            r2 = rv.squaredNorm();
+            const double w = prior * robustWeight(icp.kernel, std::sqrt(r2), icp.kernel_scale);
+            // ∂r/∂δ = R·[I, −[p]×]; JᵀJ = [I, −[p]×]ᵀ[I, −[p]×].
+            const Eigen::Matrix3d S = skew(p);
+            P.H.block<3, 3>(0, 0) += w * Eigen::Matrix3d::Identity();
+            P.H.block<3, 3>(0, 3) += -w * S;
+            P.H.block<3, 3>(3, 0) += w * S;
+            P.H.block<3, 3>(3, 3) += -w * S * S;
+            P.weight_sum += 3.0 * w;
+            P.omega_sum += w;
+            P.weighted_r2 += w * r2;
+            P.weighted_p2 += w * p.squaredNorm();
+          } else {
+            continue;  // plane metric without a trusted normal and no fallback: not used
+          }
+          P.r2 += r2;
+          ++P.correspondences;
+          if (r2 <= inlier2) ++P.inliers;
+        }
+      });
+  Partial T;
+  for (const auto& P : partials) {
+    T.H += P.H;
+    T.weight_sum += P.weight_sum;
+    T.omega_sum += P.omega_sum;
+    T.weighted_r2 += P.weighted_r2;
+    T.weighted_p2 += P.weighted_p2;
+    T.r2 += P.r2;
+    T.correspondences += P.correspondences;
+    T.inliers += P.inliers;
+  }
+  s.num_correspondences = T.correspondences;
+  s.num_inliers = T.inliers;
+  s.overlap = double(T.correspondences) / double(s.num_points);
+  s.inlier_ratio = double(T.inliers) / double(s.num_points);
+  s.rmse = T.correspondences ? std::sqrt(T.r2 / double(T.correspondences)) : 0.0;
+  s.weight_sum = T.weight_sum;
+  s.hessian = 0.5 * (T.H + T.H.transpose());
+  s.valid = T.weight_sum > 6.0 && T.omega_sum > 0.0;
+  if (!s.valid) return s;
+  s.sigma2 = T.weighted_r2 / (T.weight_sum - 6.0);
+  s.sigma2_used = std::max(s.sigma2, confidence.min_sigma * confidence.min_sigma);
+  s.information = (confidence.information_scale / s.sigma2_used) * s.hessian;
+  // Unit-free conditioning: rotation columns scaled by the RMS lever arm L, per unit weight.
+  const double L = std::sqrt(T.weighted_p2 / T.omega_sum);
+  Vector6d D;
+  D << 1, 1, 1, 1, 1, 1;
+  if (L > 0.0) D.tail<3>().setConstant(1.0 / L);
+  const Matrix6d Hn = D.asDiagonal() * s.hessian * D.asDiagonal() / T.weight_sum;
+  Eigen::SelfAdjointEigenSolver<Matrix6d> es(Hn, Eigen::EigenvaluesOnly);
+  s.conditioning = std::max(0.0, es.eigenvalues()(0));
+  return s;
+}
+
+double matchQuality(double inlier_ratio, double rmse, double overlap, double conditioning,
+                    double max_correspondence_distance, const ConfidenceParams& c) {
+  auto credit = [](double x, double ref) { return std::clamp(x / ref, 0.0, 1.0); };
+  const double q_inliers = credit(inlier_ratio, c.inlier_ratio_ref);
+  const double q_rmse = std::clamp(1.0 - rmse / max_correspondence_distance, 0.0, 1.0);
+  const double q_overlap = credit(overlap, c.overlap_ref);
+  const double q_cond = credit(conditioning, c.conditioning_ref);
+  const double q = q_inliers * q_rmse * q_overlap * q_cond;
+  return std::isfinite(q) ? q : 0.0;
+}
+
+}  // namespace obm

@@ -1,0 +1,59 @@
+#include "obm/registration/factory.hpp"
+
+#include <filesystem>
+
+#include "obm/config/config_node.hpp"
+#include "obm/core/errors.hpp"
+#include "obm/registration/icp.hpp"
+
+namespace obm {
+
+ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
+  ObmNetMatcherParams p;
+  node.checkKeys(
+      {"model_path", "num_points", "threads", "seed", "pre_align", "keep_init_if_better"});
+  p.model_path = node.required<std::string>("model_path");
+  node.get("num_points", p.num_points);
+  node.get("threads", p.threads);
+  node.get("seed", p.seed);
+  node.get("pre_align", p.pre_align);
+  node.get("keep_init_if_better", p.keep_init_if_better);
+  if (p.model_path.empty()) throw ConfigError(node.where("model_path") + ": must not be empty");
+  if (p.num_points < 0) throw ConfigError(node.where("num_points") + ": must be >= 0");
+  if (p.threads < 1) throw ConfigError(node.where("threads") + ": must be >= 1");
+  // A relative model path is relative to the YAML file that names it.
+  const std::filesystem::path model(p.model_path);
+  if (model.is_relative() && !node.file().empty() && std::filesystem::exists(node.file()))
+    p.model_path = (std::filesystem::path(node.file()).parent_path() / model).string();
+  return p;
+}
+
+ScanMatcherConfig ScanMatcherConfig::load(const ConfigNode& node) {
+  ScanMatcherConfig c;
+  node.checkKeys({"type", "icp", "obmnet", "confidence"});
+  node.get("type", c.type);
+  if (c.type != "icp" && c.type != "obmnet" && c.type != "obmnet+icp")
+    throw ConfigError(node.where("type") + ": unknown matcher type '" + c.type +
+                      "' (icp, obmnet, obmnet+icp)");
+  c.icp = IcpParams::load(node.child("icp"));
+  c.confidence = ConfidenceParams::load(node.child("confidence"));
+  if (c.type != "icp") {
+    if (!node.has("obmnet"))
+      throw ConfigError(node.where("obmnet") + ": required for type '" + c.type + "'");
+    c.obmnet = ObmNetMatcherParams::load(node.child("obmnet"));
+  } else if (node.has("obmnet")) {
+    c.obmnet = ObmNetMatcherParams::load(node.child("obmnet"));  // checked, unused
+  }
+  return c;
+}
+
+std::unique_ptr<ScanMatcher> makeScanMatcher(const ScanMatcherConfig& config) {
+  if (config.type == "icp") return std::make_unique<IcpMatcher>(config.icp, config.confidence);
+  if (config.type == "obmnet")
+    return std::make_unique<ObmNetMatcher>(config.obmnet, config.icp, config.confidence);
+  if (config.type == "obmnet+icp")
+    return std::make_unique<ObmNetIcpMatcher>(config.obmnet, config.icp, config.confidence);
+  throw ConfigError("scan matcher: unknown type '" + config.type + "' (icp, obmnet, obmnet+icp)");
+}
+
+}  // namespace obm

@@ -1,0 +1,286 @@
+#include "obm/registration/icp.hpp"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+#include "obm/core/errors.hpp"
+#include "obm/core/log.hpp"
+#include "obm/registration/confidence.hpp"
+#include "parallel.hpp"
+
+namespace obm {
+namespace {
+
+constexpr std::size_t kChunk = 4096;
+constexpr std::int32_t kNoMatch = -1;
+
+/// Residual kind of one correspondence, fixed for the iteration's step (and LM retries).
+enum Kind : std::uint8_t { kNone = 0, kPlane = 1, kPoint = 2 };
+
+struct Correspondence {
+  std::int32_t target = kNoMatch;
+  std::uint8_t kind = kNone;
+};
+
+struct Normal {
+  Matrix6d H = Matrix6d::Zero();
+  Vector6d g = Vector6d::Zero();
+  double cost = 0.0;
+  std::size_t count = 0;
+};
+
+/// Everything fixed during one ICP iteration.
+struct Problem {
+  const std::vector<Vector3f>& src;
+  const PreparedTarget& target;
+  const IcpParams& params;
+};
+
+/// Left-perturbed pose update used by the linearisation below: T ← (exp(θ), ρ) ∘ T, i.e.
+/// p'' = exp(θ)·p' + ρ ≈ p' + θ × p' + ρ for p' = T·p.
+Isometry3d applyStep(const Isometry3d& T, const Vector6d& delta) {
+  const Eigen::Vector3d rho = delta.head<3>(), theta = delta.tail<3>();
+  const double angle = theta.norm();
+  const Eigen::Matrix3d dR = angle > 0.0
+                                 ? Eigen::AngleAxisd(angle, theta / angle).toRotationMatrix()
+                                 : Eigen::Matrix3d::Identity();
+  Isometry3d out = Isometry3d::Identity();
+  out.linear() = dR * T.linear();
+  out.translation() = dR * T.translation() + rho;
+  return out;
+}
+
+/// Robust cost (and, when `normal` is set, the IRLS normal equations H δ = −g) of the fixed
+/// correspondences at pose T. Jacobians w.r.t. the left perturbation of p' = T·p:
+///   plane: r = nᵀ(p' − q),  J = [nᵀ, (p' × n)ᵀ]
+///   point: r = p' − q,      J = [I, −[p']×]
+Normal evaluate(const Problem& pb, const std::vector<Correspondence>& corr, const Isometry3d& T,
+                bool normal) {
+  const Eigen::Matrix3d R = T.linear();
+  const Eigen::Vector3d t = T.translation();
+  const auto& tgt = pb.target.cloud().points;
+  const auto& nrm = pb.target.normals();
+  const auto kernel = pb.params.kernel;
+  const double c = pb.params.kernel_scale;
+  std::vector<Normal> partials(detail::numChunks(pb.src.size(), kChunk));
+  detail::parallelChunks(pb.src.size(), kChunk, pb.params.threads,
+                         [&](std::size_t ci, std::size_t b, std::size_t e) {
+                           Normal& P = partials[ci];
+                           for (std::size_t i = b; i < e; ++i) {
+                             const Correspondence& k = corr[i];
+                             if (k.kind == kNone) continue;
+                             const Eigen::Vector3d pt = R * pb.src[i].cast<double>() + t;
+                             const Eigen::Vector3d q = tgt[std::size_t(k.target)].cast<double>();
+                             ++P.count;
+                             if (k.kind == kPlane) {
+                               const Eigen::Vector3d n = nrm[std::size_t(k.target)].cast<double>();
+                               const double r = n.dot(pt - q);
+                               P.cost += robustCost(kernel, r, c);
+                               if (!normal) continue;
+                               const double w = robustWeight(kernel, r, c);
+                               Vector6d J;
+                               J << n, pt.cross(n);
+                               P.H.noalias() += w * J * J.transpose();
+                               P.g.noalias() += (w * r) * J;
+                             } else {
+                               const Eigen::Vector3d rv = pt - q;
+                               const double rn = rv.norm();
+                               P.cost += robustCost(kernel, rn, c);
+                               if (!normal) continue;
+                               const double w = robustWeight(kernel, rn, c);
+                               // JᵀJ = [[I, −S], [S, −S²]] with S = [p']×; Jᵀr = [r; p' × r].
+                               Eigen::Matrix3d S;
+                               S << 0, -pt.z(), pt.y(), pt.z(), 0, -pt.x(), -pt.y(), pt.x(), 0;
+                               P.H.block<3, 3>(0, 0) += w * Eigen::Matrix3d::Identity();
+                               P.H.block<3, 3>(0, 3) += -w * S;
+                               P.H.block<3, 3>(3, 0) += w * S;
+                               P.H.block<3, 3>(3, 3) += -w * S * S;
+                               P.g.head<3>() += w * rv;
+                               P.g.tail<3>() += w * pt.cross(rv);
+                             }
+                           }
+                         });
+  Normal sum;
+  for (const auto& P : partials) {
+    sum.H += P.H;
+    sum.g += P.g;
+    sum.cost += P.cost;
+    sum.count += P.count;
+  }
+  return sum;
+}
+
+/// Nearest-neighbour correspondences of every source point at pose T within `gate`.
+std::size_t findCorrespondences(const Problem& pb, const Isometry3d& T, double gate,
+                                std::vector<Correspondence>& corr) {
+  const Eigen::Matrix3d R = T.linear();
+  const Eigen::Vector3d t = T.translation();
+  const auto& valid = pb.target.normalValid();
+  const bool plane = pb.params.metric == IcpMetric::PointToPlane;
+  const bool fallback = pb.params.point_to_point_fallback;
+  corr.assign(pb.src.size(), Correspondence{});
+  std::vector<std::size_t> counts(detail::numChunks(pb.src.size(), kChunk), 0);
+  detail::parallelChunks(pb.src.size(), kChunk, pb.params.threads,
+                         [&](std::size_t ci, std::size_t b, std::size_t e) {
+                           for (std::size_t i = b; i < e; ++i) {
+                             const Eigen::Vector3d pt = R * pb.src[i].cast<double>() + t;
+                             std::size_t j = 0;
+                             float d2 = 0.f;
+                             if (!pb.target.nearest(pt.cast<float>(), gate, j, d2)) continue;
+                             std::uint8_t kind = kPoint;
+                             if (plane) kind = valid[j] ? kPlane : (fallback ? kPoint : kNone);
+                             if (kind == kNone) continue;
+                             corr[i] = Correspondence{static_cast<std::int32_t>(j), kind};
+                             ++counts[ci];
+                           }
+                         });
+  std::size_t n = 0;
+  for (auto c : counts) n += c;
+  return n;
+}
+
+/// Solves (H + damping) δ = −g. Gauss–Newton adds a tiny ridge so that exactly unconstrained
+/// directions (a single plane) get a zero step instead of a failed factorisation.
+Vector6d solveStep(const Matrix6d& H, const Vector6d& g, double lambda, bool lm) {
+  const double max_diag = std::max(H.diagonal().maxCoeff(), 1e-300);
+  Matrix6d A = H;
+  if (lm) {
+    for (int k = 0; k < 6; ++k) A(k, k) += lambda * std::max(H(k, k), 1e-6 * max_diag);
+  } else {
+    A.diagonal().array() += 1e-9 * max_diag;
+  }
+  const Vector6d delta = A.ldlt().solve(-g);
+  return delta.allFinite() ? delta : Vector6d::Zero();
+}
+
+}  // namespace
+
+IcpOutcome runIcp(const std::vector<Vector3f>& source_points, const PreparedTarget& target,
+                  const Isometry3d& T_target_source_init, const IcpParams& params) {
+  params.validate();
+  IcpOutcome out;
+  out.T_target_source = T_target_source_init;
+  const Problem pb{source_points, target, params};
+  const double fine = params.max_correspondence_distance;
+  double gate = params.initial_max_correspondence_distance > fine
+                    ? params.initial_max_correspondence_distance
+                    : fine;
+  const bool lm = params.solver == IcpSolver::LevenbergMarquardt;
+  double lambda = 1e-4;
+  Isometry3d T = T_target_source_init;
+  std::vector<Correspondence> corr;
+  for (int it = 0; it < params.max_iterations; ++it) {
+    out.iterations = it + 1;
+    const std::size_t n = findCorrespondences(pb, T, gate, corr);
+    out.num_correspondences = n;
+    if (n < static_cast<std::size_t>(params.min_correspondences)) {
+      out.T_target_source = T;
+      out.status = MatchStatus::TooFewCorrespondences;
+      out.message = "ICP: " + std::to_string(n) + " correspondences within " +
+                    std::to_string(gate) + " m (need " +
+                    std::to_string(params.min_correspondences) + ")";
+      return out;
+    }
+    const Normal ne = evaluate(pb, corr, T, true);
+    Vector6d delta = Vector6d::Zero();
+    if (!lm) {
+      delta = solveStep(ne.H, ne.g, 0.0, false);
+      T = applyStep(T, delta);
+    } else {
+      // Levenberg–Marquardt on the robust cost of the fixed correspondences: retry with more
+      // damping until the cost decreases; no decrease at all means this stage has settled.
+      bool accepted = false;
+      for (int attempt = 0; attempt < 10 && !accepted; ++attempt) {
+        const Vector6d d = solveStep(ne.H, ne.g, lambda, true);
+        const Isometry3d T_new = applyStep(T, d);
+        const double cost = evaluate(pb, corr, T_new, false).cost;
+        if (cost <= ne.cost) {
+          accepted = true;
+          delta = d;
+          T = T_new;
+          lambda = std::max(lambda * 0.1, 1e-10);
+        } else {
+          lambda = std::min(lambda * 10.0, 1e10);
+        }
+      }
+    }
+    const bool small = delta.head<3>().norm() < params.translation_tolerance &&
+                       delta.tail<3>().norm() < params.rotation_tolerance;
+    if (small) {
+      if (gate > fine) {
+        gate = std::max(gate * params.anneal_factor, fine);
+        continue;
+      }
+      out.converged = true;
+      break;
+    }
+  }
+  // Re-orthonormalise: many small left-multiplications accumulate round-off in R.
+  T.linear() = orthonormalize(T.linear());
+  out.T_target_source = T;
+  if (!out.converged) {
+    out.status = MatchStatus::NotConverged;
+    out.message = "ICP: no convergence in " + std::to_string(params.max_iterations) + " iterations";
+  }
+  return out;
+}
+
+void applyConfidence(MatchResult& result, const AlignmentStats& all_stats,
+                     const AlignmentStats& info_stats, bool set_overlap, const IcpParams& icp,
+                     const ConfidenceParams& confidence) {
+  result.num_correspondences = all_stats.num_correspondences;
+  result.inlier_ratio = all_stats.inlier_ratio;
+  result.rmse = all_stats.rmse;
+  if (set_overlap) result.overlap = all_stats.overlap;
+  result.information = info_stats.information;
+  result.sigma = std::sqrt(info_stats.sigma2_used);
+  result.conditioning = info_stats.conditioning;
+  const bool too_few = !info_stats.valid || all_stats.num_correspondences <
+                                                static_cast<std::size_t>(icp.min_correspondences);
+  if (too_few) {
+    if (result.status == MatchStatus::Ok || result.status == MatchStatus::NotConverged) {
+      result.status = MatchStatus::TooFewCorrespondences;
+      result.message = "confidence: " + std::to_string(all_stats.num_correspondences) +
+                       " correspondences at the solution within " +
+                       std::to_string(icp.max_correspondence_distance) + " m (need " +
+                       std::to_string(icp.min_correspondences) + ")";
+    }
+    result.information.setZero();
+    result.quality = 0.0;
+    return;
+  }
+  if (result.status == MatchStatus::Ok &&
+      info_stats.conditioning < confidence.degeneracy_threshold) {
+    result.status = MatchStatus::Degenerate;
+    result.message = "confidence: normalised smallest Hessian eigenvalue " +
+                     std::to_string(info_stats.conditioning) + " < " +
+                     std::to_string(confidence.degeneracy_threshold) +
+                     " (a direction is unconstrained by the geometry)";
+  }
+  result.quality = matchQuality(result.inlier_ratio, result.rmse, result.overlap,
+                                result.conditioning, icp.max_correspondence_distance, confidence);
+}
+
+IcpMatcher::IcpMatcher(const IcpParams& icp, const ConfidenceParams& confidence)
+    : ScanMatcher(icp, confidence) {}
+
+MatchResult IcpMatcher::impl_match(const PointCloud& source, const PreparedTarget& target,
+                                   const Isometry3d& T_target_source_init) const {
+  MatchResult result;
+  const IcpOutcome icp = runIcp(source.points, target, T_target_source_init, icp_);
+  result.T_target_source = icp.T_target_source;
+  result.status = icp.status;
+  result.message = icp.message;
+  result.converged = icp.converged;
+  result.iterations = icp.iterations;
+  result.num_correspondences = icp.num_correspondences;
+  if (icp.status == MatchStatus::TooFewCorrespondences) return result;
+  const AlignmentStats stats =
+      evaluateAlignment(source.points, nullptr, target, result.T_target_source, icp_, confidence_);
+  applyConfidence(result, stats, stats, true, icp_, confidence_);
+  return result;
+}
+
+}  // namespace obm

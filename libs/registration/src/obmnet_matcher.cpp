@@ -1,0 +1,228 @@
+// OBMNet-based matchers. Compiled with OBM_REGISTRATION_HAS_OBMNET when libs/obmnet is built
+// (LibTorch found); otherwise the constructors throw ConfigError. Only the torch-free inference
+// header obm/obmnet/registrar.hpp is used here.
+#include "obm/registration/obmnet_matcher.hpp"
+
+#include <algorithm>
+
+#include "obm/core/errors.hpp"
+#include "obm/core/log.hpp"
+#include "obm/registration/confidence.hpp"
+#include "obm/registration/icp.hpp"
+
+#ifdef OBM_REGISTRATION_HAS_OBMNET
+#include "obm/obmnet/registrar.hpp"
+#endif
+
+namespace obm {
+
+#ifdef OBM_REGISTRATION_HAS_OBMNET
+
+namespace {
+
+ObmNetRegistrar makeRegistrar(const ObmNetMatcherParams& p) {
+  if (p.model_path.empty()) throw ConfigError("obmnet matcher: model_path is empty");
+  if (p.num_points < 0) throw ConfigError("obmnet matcher: num_points must be >= 0");
+  if (p.threads < 1) throw ConfigError("obmnet matcher: threads must be >= 1");
+  ObmNetRegistrar::Options o;
+  o.model_path = p.model_path;
+  o.num_points = p.num_points;
+  o.threads = p.threads;
+  o.seed = p.seed;
+  return ObmNetRegistrar(o);
+}
+
+/// The network stage shared by both matchers.
+struct NetworkStage {
+  bool ok = false;
+  std::string message;
+  Isometry3d T_target_source = Isometry3d::Identity();  ///< network pose (composed with T_init)
+  double alpha = 1.0, overlap = 0.0;
+  std::vector<Vector3f> sampled;  ///< the network's source points, source frame
+  std::vector<double> prior;      ///< α·w_i inside the sampled overlap, w_i outside
+};
+
+NetworkStage runNetwork(const ObmNetRegistrar& reg, const ObmNetMatcherParams& p,
+                        const PointCloud& source, const PreparedTarget& target,
+                        const Isometry3d& T_init) {
+  NetworkStage s;
+  RegistrationResult r;
+  try {
+    if (p.pre_align) {
+      // Network sees the source already moved by the guess; its output is the correction ΔT.
+      r = reg.align(source.transformed(T_init, target.cloud().frame_id), target.cloud());
+      s.T_target_source = r.T_target_source * T_init;
+    } else {
+      r = reg.align(source, target.cloud());
+      s.T_target_source = r.T_target_source;
+    }
+  } catch (const ContractError& e) {
+    // The network refuses clouds smaller than its neighbourhoods: an expected failure here.
+    s.message = std::string("OBMNet: ") + e.what();
+    return s;
+  }
+  if (!s.T_target_source.matrix().allFinite()) {
+    s.message = "OBMNet: non-finite pose";
+    return s;
+  }
+  s.ok = true;
+  s.alpha = r.alpha;
+  // The network's perplexity ratio can exceed 1 by float round-off; the result promises [0, 1].
+  s.overlap = std::clamp(r.overlap, 0.0, 1.0);
+  const std::size_t n = r.source_indices.size();
+  s.sampled.reserve(n);
+  s.prior.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    // Indices refer to the cloud given to align(), which has the source's point order.
+    s.sampled.push_back(source.points[r.source_indices[i]]);
+    const double w = i < r.inlier_weights.size() ? double(r.inlier_weights[i]) : 1.0;
+    const bool in_overlap = i < r.overlap_membership.size() && r.overlap_membership[i] > 0.5f;
+    s.prior.push_back(in_overlap ? r.alpha * w : w);
+  }
+  return s;
+}
+
+MatchResult networkFailure(const NetworkStage& s, const Isometry3d& T_init) {
+  MatchResult m;
+  m.T_target_source = T_init;
+  m.status = MatchStatus::TooFewPoints;
+  m.message = s.message;
+  return m;
+}
+
+}  // namespace
+
+struct ObmNetMatcher::Impl {
+  ObmNetMatcherParams params;
+  ObmNetRegistrar registrar;
+};
+
+ObmNetMatcher::ObmNetMatcher(const ObmNetMatcherParams& params, const IcpParams& icp,
+                             const ConfidenceParams& confidence)
+    : ScanMatcher(icp, confidence), impl_(new Impl{params, makeRegistrar(params)}) {}
+
+ObmNetMatcher::~ObmNetMatcher() = default;
+
+std::string ObmNetMatcher::describe() const {
+  return impl_->registrar.describe();
+}
+
+MatchResult ObmNetMatcher::impl_match(const PointCloud& source, const PreparedTarget& target,
+                                      const Isometry3d& T_target_source_init) const {
+  const NetworkStage net =
+      runNetwork(impl_->registrar, impl_->params, source, target, T_target_source_init);
+  if (!net.ok) return networkFailure(net, T_target_source_init);
+  MatchResult result;
+  result.T_target_source = net.T_target_source;
+  result.converged = true;
+  result.alpha = net.alpha;
+  result.overlap = net.overlap;
+  const AlignmentStats all =
+      evaluateAlignment(source.points, nullptr, target, result.T_target_source, icp_, confidence_);
+  const AlignmentStats info =
+      evaluateAlignment(net.sampled, &net.prior, target, result.T_target_source, icp_, confidence_);
+  applyConfidence(result, all, info, false, icp_, confidence_);
+  return result;
+}
+
+struct ObmNetIcpMatcher::Impl {
+  ObmNetMatcherParams params;
+  ObmNetRegistrar registrar;
+};
+
+ObmNetIcpMatcher::ObmNetIcpMatcher(const ObmNetMatcherParams& params, const IcpParams& icp,
+                                   const ConfidenceParams& confidence)
+    : ScanMatcher(icp, confidence), impl_(new Impl{params, makeRegistrar(params)}) {}
+
+ObmNetIcpMatcher::~ObmNetIcpMatcher() = default;
+
+std::string ObmNetIcpMatcher::describe() const {
+  return impl_->registrar.describe();
+}
+
+MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const PreparedTarget& target,
+                                         const Isometry3d& T_target_source_init) const {
+  const NetworkStage net =
+      runNetwork(impl_->registrar, impl_->params, source, target, T_target_source_init);
+  if (!net.ok) return networkFailure(net, T_target_source_init);
+  Isometry3d T_start = net.T_target_source;
+  if (impl_->params.keep_init_if_better) {
+    // Which start explains more source points within the first (coarsest) ICP gate?
+    IcpParams first = icp_;
+    first.max_correspondence_distance =
+        std::max(icp_.max_correspondence_distance, icp_.initial_max_correspondence_distance);
+    const auto n_net =
+        evaluateAlignment(source.points, nullptr, target, net.T_target_source, first, confidence_)
+            .num_correspondences;
+    const auto n_init =
+        evaluateAlignment(source.points, nullptr, target, T_target_source_init, first, confidence_)
+            .num_correspondences;
+    if (n_init > n_net) {
+      T_start = T_target_source_init;
+      OBM_LOG_DEBUG("registration", "obmnet+icp: starting ICP from the initial guess ("
+                                        << n_init << " vs " << n_net << " paired points)");
+    }
+  }
+  const IcpOutcome icp = runIcp(source.points, target, T_start, icp_);
+  MatchResult result;
+  result.T_target_source = icp.T_target_source;
+  result.status = icp.status;
+  result.message = icp.message;
+  result.converged = icp.converged;
+  result.iterations = icp.iterations;
+  result.num_correspondences = icp.num_correspondences;
+  result.alpha = net.alpha;
+  result.overlap = net.overlap;
+  if (icp.status == MatchStatus::TooFewCorrespondences) return result;
+  const AlignmentStats all =
+      evaluateAlignment(source.points, nullptr, target, result.T_target_source, icp_, confidence_);
+  const AlignmentStats info =
+      evaluateAlignment(net.sampled, &net.prior, target, result.T_target_source, icp_, confidence_);
+  applyConfidence(result, all, info, false, icp_, confidence_);
+  return result;
+}
+
+#else  // no LibTorch
+
+namespace {
+[[noreturn]] void noTorch() {
+  throw ConfigError(
+      "obmnet matcher: this build has no OBMNet (configure with -DOBM_WITH_TORCH=ON and "
+      "LibTorch installed)");
+}
+}  // namespace
+
+struct ObmNetMatcher::Impl {};
+struct ObmNetIcpMatcher::Impl {};
+
+ObmNetMatcher::ObmNetMatcher(const ObmNetMatcherParams&, const IcpParams& icp,
+                             const ConfidenceParams& confidence)
+    : ScanMatcher(icp, confidence) {
+  noTorch();
+}
+ObmNetMatcher::~ObmNetMatcher() = default;
+std::string ObmNetMatcher::describe() const {
+  return {};
+}
+MatchResult ObmNetMatcher::impl_match(const PointCloud&, const PreparedTarget&,
+                                      const Isometry3d&) const {
+  noTorch();
+}
+
+ObmNetIcpMatcher::ObmNetIcpMatcher(const ObmNetMatcherParams&, const IcpParams& icp,
+                                   const ConfidenceParams& confidence)
+    : ScanMatcher(icp, confidence) {
+  noTorch();
+}
+ObmNetIcpMatcher::~ObmNetIcpMatcher() = default;
+std::string ObmNetIcpMatcher::describe() const {
+  return {};
+}
+MatchResult ObmNetIcpMatcher::impl_match(const PointCloud&, const PreparedTarget&,
+                                         const Isometry3d&) const {
+  noTorch();
+}
+
+#endif
+
+}  // namespace obm

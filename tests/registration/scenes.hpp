@@ -1,0 +1,97 @@
+#pragma once
+// Synthetic scenes for the registration tests: axis-aligned rectangles (walls, floors, box
+// faces) sampled uniformly with a seeded RNG, in metres.
+#include <Eigen/Core>
+#include <cmath>
+#include <random>
+
+#include "obm/core/point_cloud.hpp"
+#include "obm/core/se3.hpp"
+
+namespace obm::test {
+
+/// Samples `n` points uniformly on the axis-aligned rectangle with corner `origin` spanned by
+/// `u` and `v`.
+inline void sampleRect(PointCloud& cloud, const Eigen::Vector3f& origin, const Eigen::Vector3f& u,
+                       const Eigen::Vector3f& v, std::size_t n, std::mt19937_64& rng) {
+  std::uniform_real_distribution<float> U(0.f, 1.f);
+  for (std::size_t i = 0; i < n; ++i) cloud.push_back(origin + U(rng) * u + U(rng) * v);
+}
+
+/// The five visible faces of the box [lo, hi] standing on the floor (no bottom face), `density`
+/// points per m².
+inline void sampleBox(PointCloud& c, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
+                      double density, std::mt19937_64& rng) {
+  const Eigen::Vector3f d = hi - lo;
+  const Eigen::Vector3f X(d.x(), 0, 0), Y(0, d.y(), 0), Z(0, 0, d.z());
+  auto n = [&](double area) { return static_cast<std::size_t>(std::max(1.0, area * density)); };
+  sampleRect(c, lo, X, Z, n(d.x() * d.z()), rng);
+  sampleRect(c, lo + Y, X, Z, n(d.x() * d.z()), rng);
+  sampleRect(c, lo, Y, Z, n(d.y() * d.z()), rng);
+  sampleRect(c, lo + X, Y, Z, n(d.y() * d.z()), rng);
+  sampleRect(c, lo + Z, X, Y, n(d.x() * d.y()), rng);
+}
+
+/// A room 10 × 7 × 3 m (floor, ceiling, four walls) with two boxes on the floor, seen from a
+/// sensor at the origin 1 m above the floor. Constrains all six degrees of freedom.
+inline PointCloud roomScene(double density, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  PointCloud c;
+  c.frame_id = "target";
+  const float x0 = -4.f, x1 = 6.f, y0 = -3.f, y1 = 4.f, z0 = -1.f, z1 = 2.f;
+  auto n = [&](double area) { return static_cast<std::size_t>(area * density); };
+  sampleRect(c, {x0, y0, z0}, {x1 - x0, 0, 0}, {0, y1 - y0, 0}, n(70), rng);  // floor
+  sampleRect(c, {x0, y0, z1}, {x1 - x0, 0, 0}, {0, y1 - y0, 0}, n(70), rng);  // ceiling
+  sampleRect(c, {x0, y0, z0}, {x1 - x0, 0, 0}, {0, 0, z1 - z0}, n(30), rng);  // walls
+  sampleRect(c, {x0, y1, z0}, {x1 - x0, 0, 0}, {0, 0, z1 - z0}, n(30), rng);
+  sampleRect(c, {x0, y0, z0}, {0, y1 - y0, 0}, {0, 0, z1 - z0}, n(21), rng);
+  sampleRect(c, {x1, y0, z0}, {0, y1 - y0, 0}, {0, 0, z1 - z0}, n(21), rng);
+  sampleBox(c, {1.f, -1.5f, z0}, {2.2f, -0.2f, 0.2f}, density, rng);
+  sampleBox(c, {-2.5f, 1.f, z0}, {-1.8f, 2.5f, 0.8f}, density, rng);
+  return c;
+}
+
+/// A single 20 × 20 m plane z = −1 (the ground under a sensor): x, y and yaw are unconstrained.
+inline PointCloud planeScene(double density, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  PointCloud c;
+  c.frame_id = "target";
+  sampleRect(c, {-10.f, -10.f, -1.f}, {20.f, 0, 0}, {0, 20.f, 0},
+             static_cast<std::size_t>(400 * density), rng);
+  return c;
+}
+
+/// The source of a synthetic pair: a random `fraction` of the target's points, expressed in the
+/// source frame (p_source = T_target_source⁻¹ · p_target), plus isotropic Gaussian noise σ.
+inline PointCloud makeSource(const PointCloud& target, const Isometry3d& T_target_source,
+                             double fraction, double noise_sigma, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  std::normal_distribution<double> N(0.0, 1.0);
+  PointCloud s;
+  s.frame_id = "source";
+  const Isometry3d T_source_target = T_target_source.inverse();
+  for (const auto& p : target.points) {
+    const double keep = U(rng);
+    const Eigen::Vector3d e(N(rng), N(rng), N(rng));
+    if (keep > fraction) continue;
+    const Eigen::Vector3d q = T_source_target * p.cast<double>() + noise_sigma * e;
+    s.push_back(q.cast<float>());
+  }
+  return s;
+}
+
+/// Translation [m] and rotation [deg] error between two poses.
+inline std::pair<double, double> poseError(const Isometry3d& A, const Isometry3d& B) {
+  const Isometry3d D = A.inverse() * B;
+  return {D.translation().norm(), rotationAngle(D.linear()) * kRadToDeg};
+}
+
+/// A fixed perturbation: `trans` metres along a skewed axis, `deg` degrees about another.
+inline Isometry3d perturbation(double trans, double deg) {
+  const Eigen::Vector3d axis = Eigen::Vector3d(0.3, -0.5, 0.8).normalized();
+  const Eigen::Vector3d dir = Eigen::Vector3d(0.6, 0.7, -0.4).normalized();
+  return makeIsometry(Eigen::AngleAxisd(deg * kDegToRad, axis).toRotationMatrix(), trans * dir);
+}
+
+}  // namespace obm::test

@@ -1,0 +1,164 @@
+// YAML loading of the matcher parameters and the factory; the shipped config files load.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "obm/config/config_node.hpp"
+#include "obm/core/errors.hpp"
+#include "obm/registration/factory.hpp"
+
+namespace obm {
+namespace {
+
+TEST(RegistrationConfig, LoadsEveryKey) {
+  const auto node = ConfigNode::fromString(R"(
+type: icp
+icp:
+  source_voxel: 0.3
+  target_voxel: 0.2
+  normal_neighbors: 12
+  min_planarity: 0.2
+  max_correspondence_distance: 0.8
+  initial_max_correspondence_distance: 3.0
+  anneal_factor: 0.4
+  metric: point_to_point
+  point_to_point_fallback: false
+  kernel: tukey
+  kernel_scale: 0.25
+  solver: gauss_newton
+  max_iterations: 17
+  translation_tolerance: 1.0e-5
+  rotation_tolerance_deg: 0.01
+  min_correspondences: 40
+  threads: 1
+confidence:
+  inlier_threshold: 0.3
+  min_sigma: 0.01
+  information_scale: 0.5
+  inlier_ratio_ref: 0.6
+  overlap_ref: 0.4
+  conditioning_ref: 0.03
+  degeneracy_threshold: 0.002
+)");
+  const ScanMatcherConfig c = ScanMatcherConfig::load(node);
+  EXPECT_EQ(c.type, "icp");
+  EXPECT_EQ(c.icp.source_voxel, 0.3);
+  EXPECT_EQ(c.icp.target_voxel, 0.2);
+  EXPECT_EQ(c.icp.normal_neighbors, 12);
+  EXPECT_EQ(c.icp.min_planarity, 0.2);
+  EXPECT_EQ(c.icp.max_correspondence_distance, 0.8);
+  EXPECT_EQ(c.icp.initial_max_correspondence_distance, 3.0);
+  EXPECT_EQ(c.icp.anneal_factor, 0.4);
+  EXPECT_EQ(c.icp.metric, IcpMetric::PointToPoint);
+  EXPECT_FALSE(c.icp.point_to_point_fallback);
+  EXPECT_EQ(c.icp.kernel, RobustKernel::Tukey);
+  EXPECT_EQ(c.icp.kernel_scale, 0.25);
+  EXPECT_EQ(c.icp.solver, IcpSolver::GaussNewton);
+  EXPECT_EQ(c.icp.max_iterations, 17);
+  EXPECT_EQ(c.icp.translation_tolerance, 1e-5);
+  EXPECT_DOUBLE_EQ(c.icp.rotation_tolerance, 0.01 * kDegToRad);
+  EXPECT_EQ(c.icp.min_correspondences, 40);
+  EXPECT_EQ(c.icp.threads, 1);
+  EXPECT_EQ(c.confidence.inlier_threshold, 0.3);
+  EXPECT_EQ(c.confidence.min_sigma, 0.01);
+  EXPECT_EQ(c.confidence.information_scale, 0.5);
+  EXPECT_EQ(c.confidence.inlier_ratio_ref, 0.6);
+  EXPECT_EQ(c.confidence.overlap_ref, 0.4);
+  EXPECT_EQ(c.confidence.conditioning_ref, 0.03);
+  EXPECT_EQ(c.confidence.degeneracy_threshold, 0.002);
+  const auto m = makeScanMatcher(c);
+  EXPECT_EQ(m->name(), "icp");
+  EXPECT_EQ(m->icpParams().kernel, RobustKernel::Tukey);
+  const PreparedTarget::Options o = c.icp.targetOptions();
+  EXPECT_EQ(o.voxel, 0.2);
+  EXPECT_EQ(o.normal_neighbors, 12);
+}
+
+TEST(RegistrationConfig, DefaultsWhenKeysAreAbsent) {
+  const ScanMatcherConfig c = ScanMatcherConfig::load(ConfigNode::fromString("{}"));
+  EXPECT_EQ(c.type, "icp");
+  EXPECT_EQ(c.icp.max_correspondence_distance, IcpParams().max_correspondence_distance);
+  EXPECT_EQ(c.icp.kernel, IcpParams().kernel);
+  EXPECT_EQ(c.confidence.min_sigma, ConfidenceParams().min_sigma);
+}
+
+void expectConfigError(const std::string& yaml, const std::string& fragment) {
+  try {
+    ScanMatcherConfig::load(ConfigNode::fromString(yaml, "test.yaml"));
+    FAIL() << "no ConfigError for: " << yaml;
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("test.yaml"), std::string::npos) << e.what();
+  }
+}
+
+TEST(RegistrationConfig, ErrorsNameFileAndKey) {
+  expectConfigError("type: ndt", "type");
+  expectConfigError("typo: icp", "typo");
+  expectConfigError("icp: {kernel: welsch}", "icp.kernel");
+  expectConfigError("icp: {metric: plane}", "icp.metric");
+  expectConfigError("icp: {solver: newton}", "icp.solver");
+  expectConfigError("icp: {max_correspondence_distance: -1}", "max_correspondence_distance");
+  expectConfigError("icp: {max_iterations: many}", "icp.max_iterations");
+  expectConfigError("icp: {kernel_sclae: 1}", "icp.kernel_sclae");
+  expectConfigError("confidence: {min_sigma: 0}", "min_sigma");
+  expectConfigError("type: obmnet", "obmnet");
+  expectConfigError("type: obmnet+icp\nobmnet: {threads: 2}", "obmnet.model_path");
+  expectConfigError("type: obmnet\nobmnet: {model_path: m.pt, pre_aling: true}",
+                    "obmnet.pre_aling");
+}
+
+TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
+  const ScanMatcherConfig c = ScanMatcherConfig::load(
+      ConfigNode::loadFile(std::string(OBM_SOURCE_DIR) + "/config/registration/obmnet_icp.yaml"));
+  EXPECT_EQ(c.type, "obmnet+icp");
+  EXPECT_TRUE(c.obmnet.pre_align);
+  // Resolved against the YAML file's folder.
+  EXPECT_EQ(c.obmnet.model_path.rfind(std::string(OBM_SOURCE_DIR) + "/config/registration/", 0), 0u)
+      << c.obmnet.model_path;
+  const auto s = ScanMatcherConfig::load(ConfigNode::fromString(
+      "type: obmnet\nobmnet: {model_path: /abs/m.pt, num_points: 512, threads: 1, seed: 7, "
+      "pre_align: false, keep_init_if_better: false}"));
+  EXPECT_EQ(s.obmnet.model_path, "/abs/m.pt");
+  EXPECT_EQ(s.obmnet.num_points, 512);
+  EXPECT_EQ(s.obmnet.threads, 1);
+  EXPECT_EQ(s.obmnet.seed, 7u);
+  EXPECT_FALSE(s.obmnet.pre_align);
+  EXPECT_FALSE(s.obmnet.keep_init_if_better);
+}
+
+TEST(RegistrationConfig, ShippedIcpConfigHoldsTheDefaults) {
+  // config/registration/icp.yaml documents every key with its default value.
+  const ScanMatcherConfig c = ScanMatcherConfig::load(
+      ConfigNode::loadFile(std::string(OBM_SOURCE_DIR) + "/config/registration/icp.yaml"));
+  const IcpParams d;
+  EXPECT_EQ(c.type, "icp");
+  EXPECT_EQ(c.icp.source_voxel, d.source_voxel);
+  EXPECT_EQ(c.icp.target_voxel, d.target_voxel);
+  EXPECT_EQ(c.icp.normal_neighbors, d.normal_neighbors);
+  EXPECT_EQ(c.icp.min_planarity, d.min_planarity);
+  EXPECT_EQ(c.icp.max_correspondence_distance, d.max_correspondence_distance);
+  EXPECT_EQ(c.icp.initial_max_correspondence_distance, d.initial_max_correspondence_distance);
+  EXPECT_EQ(c.icp.anneal_factor, d.anneal_factor);
+  EXPECT_EQ(c.icp.metric, d.metric);
+  EXPECT_EQ(c.icp.point_to_point_fallback, d.point_to_point_fallback);
+  EXPECT_EQ(c.icp.kernel, d.kernel);
+  EXPECT_EQ(c.icp.kernel_scale, d.kernel_scale);
+  EXPECT_EQ(c.icp.solver, d.solver);
+  EXPECT_EQ(c.icp.max_iterations, d.max_iterations);
+  EXPECT_EQ(c.icp.translation_tolerance, d.translation_tolerance);
+  EXPECT_NEAR(c.icp.rotation_tolerance, d.rotation_tolerance, 1e-15);
+  EXPECT_EQ(c.icp.min_correspondences, d.min_correspondences);
+  EXPECT_EQ(c.icp.threads, d.threads);
+  const ConfidenceParams cd;
+  EXPECT_EQ(c.confidence.inlier_threshold, cd.inlier_threshold);
+  EXPECT_EQ(c.confidence.min_sigma, cd.min_sigma);
+  EXPECT_EQ(c.confidence.information_scale, cd.information_scale);
+  EXPECT_EQ(c.confidence.inlier_ratio_ref, cd.inlier_ratio_ref);
+  EXPECT_EQ(c.confidence.overlap_ref, cd.overlap_ref);
+  EXPECT_EQ(c.confidence.conditioning_ref, cd.conditioning_ref);
+  EXPECT_EQ(c.confidence.degeneracy_threshold, cd.degeneracy_threshold);
+}
+
+}  // namespace
+}  // namespace obm

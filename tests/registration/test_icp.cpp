@@ -1,0 +1,292 @@
+// Point-to-plane ICP: kernels, prepared targets, exact convergence on noise-free synthetic
+// scenes (parametrised over kernels, solvers and metrics), outlier rejection, determinism and
+// the expected-failure statuses.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <tuple>
+
+#include "obm/core/errors.hpp"
+#include "obm/registration/icp.hpp"
+#include "scenes.hpp"
+
+namespace obm {
+namespace {
+
+using test::makeSource;
+using test::perturbation;
+using test::poseError;
+using test::roomScene;
+
+const Isometry3d kTruth =
+    makeIsometry(Eigen::AngleAxisd(12.0 * kDegToRad, Eigen::Vector3d(0.2, 0.1, 1.0).normalized())
+                     .toRotationMatrix(),
+                 Eigen::Vector3d(0.8, -0.4, 0.1));
+
+IcpParams exactParams() {
+  IcpParams p;
+  p.max_correspondence_distance = 1.0;
+  p.kernel_scale = 0.5;
+  p.translation_tolerance = 1e-7;
+  p.rotation_tolerance = 1e-7;
+  p.max_iterations = 100;
+  return p;
+}
+
+// ---------------------------------------------------------------------------------------------
+TEST(RobustKernel, WeightIsDerivativeOverResidual) {
+  for (auto k : {RobustKernel::None, RobustKernel::Huber, RobustKernel::Cauchy,
+                 RobustKernel::GemanMcClure, RobustKernel::Tukey}) {
+    const double c = 0.3;
+    EXPECT_DOUBLE_EQ(robustWeight(k, 0.0, c), 1.0) << toString(k);
+    EXPECT_DOUBLE_EQ(robustCost(k, 0.0, c), 0.0) << toString(k);
+    for (double r : {-0.7, -0.25, 0.01, 0.1, 0.29, 0.31, 0.9, 2.5}) {
+      const double h = 1e-6;
+      const double deriv = (robustCost(k, r + h, c) - robustCost(k, r - h, c)) / (2 * h);
+      EXPECT_NEAR(robustWeight(k, r, c), deriv / r, 1e-5) << toString(k) << " r=" << r;
+      EXPECT_GE(robustWeight(k, r, c), 0.0);
+      EXPECT_LE(robustWeight(k, r, c), 1.0);
+    }
+    EXPECT_EQ(parseRobustKernel(toString(k)), k);
+  }
+  EXPECT_EQ(robustWeight(RobustKernel::Tukey, 0.31, 0.3), 0.0);  // hard rejection beyond c
+  EXPECT_EQ(parseRobustKernel("gm"), RobustKernel::GemanMcClure);
+  EXPECT_THROW(parseRobustKernel("welsch"), ConfigError);
+}
+
+// ---------------------------------------------------------------------------------------------
+TEST(PreparedTarget, NormalsNearestAndKnn) {
+  // A plane z = -1 seen from the origin: normals ±z, oriented towards the origin (+z).
+  const PointCloud plane = test::planeScene(4.0, 3);
+  PreparedTarget::Options all;
+  all.min_planarity = 0.0;  // also trust elongated neighbourhoods: every normal is checked
+  PreparedTarget pt(plane, all);
+  ASSERT_EQ(pt.size(), plane.size());
+  for (std::size_t i = 0; i < pt.size(); ++i) {
+    ASSERT_EQ(pt.normalValid()[i], 1);
+    EXPECT_NEAR(pt.normals()[i].z(), 1.0f, 1e-4f);
+  }
+  // Nearest against brute force, with the gate respected.
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<float> U(-9.f, 9.f);
+  for (int q = 0; q < 200; ++q) {
+    const Vector3f query(U(rng), U(rng), -1.f + 0.1f * U(rng));
+    std::size_t best = 0;
+    float best_d2 = std::numeric_limits<float>::max();
+    for (std::size_t i = 0; i < plane.size(); ++i) {
+      const float d2 = (plane.points[i] - query).squaredNorm();
+      if (d2 < best_d2) best_d2 = d2, best = i;
+    }
+    std::size_t idx = 0;
+    float d2 = 0.f;
+    ASSERT_TRUE(pt.nearest(query, 10.0, idx, d2));
+    EXPECT_FLOAT_EQ(d2, best_d2);
+    EXPECT_EQ(idx, best);
+    const double gate = 0.5 * std::sqrt(best_d2);
+    EXPECT_FALSE(pt.nearest(query, gate, idx, d2));
+    std::vector<std::size_t> ki;
+    std::vector<float> kd;
+    ASSERT_EQ(pt.knn(query, 5, ki, kd), 5u);
+    EXPECT_EQ(ki[0], best);
+    for (int j = 1; j < 5; ++j) EXPECT_LE(kd[j - 1], kd[j]);
+  }
+  // Points on a line have no trustworthy normal.
+  PointCloud line;
+  for (int i = 0; i < 50; ++i) line.push_back(Vector3f(0.1f * i, 2.f, 0.f));
+  PreparedTarget pl(line);
+  for (auto v : pl.normalValid()) EXPECT_EQ(v, 0);
+  // Non-finite points are dropped; voxelisation applies.
+  PointCloud dirty = plane;
+  dirty.points[0].x() = std::numeric_limits<float>::quiet_NaN();
+  PreparedTarget::Options o;
+  EXPECT_EQ(PreparedTarget(dirty, o).size(), plane.size() - 1);
+  o.voxel = 2.0;
+  EXPECT_LT(PreparedTarget(dirty, o).size(), 150u);
+  o.normal_neighbors = 2;
+  EXPECT_THROW(PreparedTarget(plane, o), ContractError);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Exact convergence on a noise-free scene from a perturbed guess, for every kernel × solver ×
+// metric.
+using ConvergenceCase = std::tuple<RobustKernel, IcpSolver, IcpMetric>;
+class IcpConvergence : public ::testing::TestWithParam<ConvergenceCase> {};
+
+TEST_P(IcpConvergence, NoiseFreeRoomFromPerturbedGuess) {
+  const auto [kernel, solver, metric] = GetParam();
+  IcpParams p = exactParams();
+  p.kernel = kernel;
+  p.solver = solver;
+  p.metric = metric;
+  const PointCloud target = roomScene(20.0, 1);
+  const PointCloud source = makeSource(target, kTruth, 0.6, 0.0, 2);
+  IcpMatcher icp(p);
+  for (const auto& [trans, deg] : {std::pair{0.3, 5.0}, std::pair{-0.4, -8.0}}) {
+    const Isometry3d guess = kTruth * perturbation(trans, deg);
+    const MatchResult r = icp.match(source, target, guess);
+    EXPECT_EQ(r.status, MatchStatus::Ok) << r.message;
+    EXPECT_TRUE(r.converged);
+    const auto [et, er] = poseError(r.T_target_source, kTruth);
+    EXPECT_LT(et, 1e-4) << "translation error [m]";
+    EXPECT_LT(er, 1e-3) << "rotation error [deg]";
+    EXPECT_GT(r.iterations, 1);
+    EXPECT_NEAR(r.inlier_ratio, 1.0, 1e-9);
+    EXPECT_LT(r.rmse, 1e-4);
+    EXPECT_GT(r.quality, 0.5);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    KernelsSolversMetrics, IcpConvergence,
+    ::testing::Combine(::testing::Values(RobustKernel::None, RobustKernel::Huber,
+                                         RobustKernel::Cauchy, RobustKernel::GemanMcClure,
+                                         RobustKernel::Tukey),
+                       ::testing::Values(IcpSolver::GaussNewton, IcpSolver::LevenbergMarquardt),
+                       ::testing::Values(IcpMetric::PointToPlane, IcpMetric::PointToPoint)),
+    [](const auto& info) {
+      return toString(std::get<0>(info.param)) + "_" + toString(std::get<1>(info.param)) + "_" +
+             toString(std::get<2>(info.param));
+    });
+
+// ---------------------------------------------------------------------------------------------
+TEST(Icp, AnnealedGateRecoversLargerOffset) {
+  const PointCloud target = roomScene(20.0, 1);
+  const PointCloud source = makeSource(target, kTruth, 0.6, 0.0, 2);
+  const Isometry3d guess = kTruth * perturbation(1.2, 10.0);
+  IcpParams p = exactParams();
+  p.max_correspondence_distance = 0.2;
+  p.initial_max_correspondence_distance = 2.0;
+  const MatchResult r = IcpMatcher(p).match(source, target, guess);
+  EXPECT_TRUE(r.converged) << r.message;
+  const auto [et, er] = poseError(r.T_target_source, kTruth);
+  EXPECT_LT(et, 1e-4);
+  EXPECT_LT(er, 1e-3);
+}
+
+TEST(Icp, RobustKernelsRejectInjectedOutliers) {
+  const PointCloud target = roomScene(20.0, 1);
+  PointCloud source = makeSource(target, kTruth, 0.6, 0.0, 2);
+  // 25 % of the source displaced by 0.2–0.4 m along one direction (a ghost copy of the scene):
+  // within the gate, so they pair with something, and they pull least squares one way.
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> U(0.2, 0.4);
+  const Eigen::Vector3d ghost = Eigen::Vector3d(0.6, 0.3, 0.7).normalized();
+  for (std::size_t i = 0; i < source.size(); i += 4)
+    source.points[i] += (U(rng) * ghost).cast<float>();
+  const Isometry3d guess = kTruth * perturbation(0.1, 2.0);
+  auto run = [&](RobustKernel k) {
+    IcpParams p = exactParams();
+    p.kernel = k;
+    p.kernel_scale = 0.05;
+    p.max_correspondence_distance = 0.5;
+    return IcpMatcher(p).match(source, target, guess);
+  };
+  const auto plain = run(RobustKernel::None);
+  const double plain_err = poseError(plain.T_target_source, kTruth).first;
+  EXPECT_GT(plain_err, 0.02) << "the outliers must bias least squares for this test to mean much";
+  // Every kernel reduces the bias; the redescending ones with a fast-decaying influence
+  // (Geman-McClure, Tukey) remove it.
+  for (auto k : {RobustKernel::Huber, RobustKernel::Cauchy, RobustKernel::GemanMcClure,
+                 RobustKernel::Tukey}) {
+    const MatchResult r = run(k);
+    const auto [et, er] = poseError(r.T_target_source, kTruth);
+    RecordProperty(toString(k) + "_error_mm", std::to_string(1e3 * et));
+    EXPECT_LT(et, 0.5 * plain_err) << toString(k) << " vs least squares " << plain_err;
+    if (k == RobustKernel::GemanMcClure || k == RobustKernel::Tukey) {
+      EXPECT_LT(et, 2e-3) << toString(k);
+      EXPECT_LT(er, 0.05) << toString(k);
+    }
+  }
+}
+
+TEST(Icp, DeterministicAndThreadCountIndependent) {
+  const PointCloud target = roomScene(60.0, 4);
+  const PointCloud source = makeSource(target, kTruth, 0.7, 0.01, 5);
+  const Isometry3d guess = kTruth * perturbation(0.2, 3.0);
+  IcpParams p;
+  p.threads = 1;
+  const MatchResult a = IcpMatcher(p).match(source, target, guess);
+  p.threads = 2;
+  const MatchResult b = IcpMatcher(p).match(source, target, guess);
+  const MatchResult c = IcpMatcher(p).match(source, target, guess);
+  ASSERT_GT(source.size(), 8192u);  // several chunks, so both threads work
+  EXPECT_TRUE(a.T_target_source.isApprox(b.T_target_source, 0.0));
+  EXPECT_TRUE(b.T_target_source.isApprox(c.T_target_source, 0.0));
+  EXPECT_EQ(a.iterations, b.iterations);
+  EXPECT_TRUE(a.information == b.information);
+}
+
+TEST(Icp, PreparedTargetIsReusable) {
+  const PointCloud target = roomScene(20.0, 1);
+  IcpMatcher icp(exactParams());
+  const PreparedTarget prepared = icp.prepare(target);
+  for (std::uint64_t seed : {11u, 12u}) {
+    const PointCloud source = makeSource(target, kTruth, 0.5, 0.0, seed);
+    const Isometry3d guess = kTruth * perturbation(0.2, 4.0);
+    const MatchResult a = icp.match(source, prepared, guess);
+    const MatchResult b = icp.match(source, target, guess);
+    EXPECT_TRUE(a.T_target_source.isApprox(b.T_target_source, 0.0));
+    EXPECT_LT(poseError(a.T_target_source, kTruth).first, 1e-4);
+  }
+}
+
+TEST(Icp, SourceVoxelisationStillConverges) {
+  const PointCloud target = roomScene(60.0, 1);
+  const PointCloud source = makeSource(target, kTruth, 1.0, 0.0, 2);
+  IcpParams p = exactParams();
+  p.source_voxel = 0.3;
+  p.target_voxel = 0.0;
+  const MatchResult r = IcpMatcher(p).match(source, target, kTruth * perturbation(0.2, 3.0));
+  // Voxel centroids are off the surfaces only at edges: a few mm at most.
+  const auto [et, er] = poseError(r.T_target_source, kTruth);
+  EXPECT_LT(et, 0.01);
+  EXPECT_LT(er, 0.1);
+  EXPECT_LT(r.num_correspondences, source.size() / 3);
+}
+
+// ---------------------------------------------------------------------------------------------
+TEST(Icp, ExpectedFailuresReturnAStatus) {
+  const PointCloud target = roomScene(10.0, 1);
+  const PointCloud source = makeSource(target, kTruth, 0.5, 0.0, 2);
+  const IcpMatcher icp;
+  PointCloud empty;
+  auto r = icp.match(empty, target);
+  EXPECT_EQ(r.status, MatchStatus::EmptyInput);
+  EXPECT_FALSE(r.message.empty());
+  EXPECT_EQ(icp.match(source, empty).status, MatchStatus::EmptyInput);
+  // Only non-finite points = empty.
+  PointCloud nan_cloud;
+  nan_cloud.push_back(Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+  EXPECT_EQ(icp.match(nan_cloud, target).status, MatchStatus::EmptyInput);
+  // Too few points.
+  PointCloud few;
+  for (int i = 0; i < 10; ++i) few.push_back(source.points[std::size_t(i)]);
+  r = icp.match(few, target, kTruth);
+  EXPECT_EQ(r.status, MatchStatus::TooFewPoints);
+  EXPECT_TRUE(r.T_target_source.isApprox(kTruth, 0.0));  // the guess comes back
+  EXPECT_EQ(r.quality, 0.0);
+  // The clouds 100 m apart: nothing within the gate.
+  r = icp.match(source, target, makeIsometry(Eigen::Matrix3d::Identity(), {100, 0, 0}));
+  EXPECT_EQ(r.status, MatchStatus::TooFewCorrespondences);
+  EXPECT_EQ(r.quality, 0.0);
+  EXPECT_TRUE(r.information.isZero());
+  // Iteration limit.
+  IcpParams p;
+  p.max_iterations = 1;
+  r = IcpMatcher(p).match(source, target, kTruth * perturbation(0.3, 5.0));
+  EXPECT_EQ(r.status, MatchStatus::NotConverged);
+  EXPECT_FALSE(r.converged);
+  EXPECT_EQ(r.iterations, 1);
+  // A non-finite guess is a contract violation, not an expected failure.
+  Isometry3d bad = Isometry3d::Identity();
+  bad(0, 3) = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(icp.match(source, target, bad), ContractError);
+  // Bad parameters are contract violations too.
+  p = IcpParams();
+  p.kernel_scale = 0.0;
+  EXPECT_THROW(IcpMatcher{p}, ContractError);
+}
+
+}  // namespace
+}  // namespace obm

@@ -1,0 +1,182 @@
+// The OBMNet matchers with a small random (untrained) model: plumbing, not accuracy — finite
+// results, α > 0, a symmetric PSD information matrix, the pre-alignment composition, statuses —
+// and exact convergence of the matchers that end with ICP, parametrised over matchers × kernels.
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+
+#include "obm/config/config_node.hpp"
+#include "obm/core/errors.hpp"
+#include "obm/obmnet/model_io.hpp"
+#include "obm/registration/factory.hpp"
+#include "obm/registration/icp.hpp"
+#include "scenes.hpp"
+#include "test_data.hpp"
+
+namespace obm {
+namespace {
+
+using test::makeSource;
+using test::perturbation;
+using test::poseError;
+
+const Isometry3d kTruth =
+    makeIsometry(Eigen::AngleAxisd(9.0 * kDegToRad, Eigen::Vector3d(0.1, -0.2, 1.0).normalized())
+                     .toRotationMatrix(),
+                 Eigen::Vector3d(0.6, 0.2, -0.1));
+
+class ObmNetMatchers : public ::testing::Test {
+ public:
+  static void SetUpTestSuite() {
+    dir() = test::scratchDir("registration_obmnet");
+    torch::manual_seed(17);
+    ObmNetConfig c;
+    c.emb_dims = 16;
+    c.n_samples = 8;
+    c.n_iters = 1;
+    c.n_keypoints = 64;
+    ObmNet net(c);
+    obmnet::ModelMeta meta;
+    meta.num_points = 384;
+    meta.description = "random test model";
+    obmnet::saveModel(dir() + "/small.pt", net, meta);
+    // Neighbourhoods of 16 points: refuses clouds smaller than that.
+    c.k1 = 16;
+    c.k2 = 16;
+    ObmNet wide(c);
+    obmnet::saveModel(dir() + "/k16.pt", wide, meta);
+  }
+  static std::string& dir() {
+    static std::string d;
+    return d;
+  }
+  static ObmNetMatcherParams params(const std::string& file = "small.pt") {
+    ObmNetMatcherParams p;
+    p.model_path = dir() + "/" + file;
+    p.threads = 1;
+    return p;
+  }
+};
+
+void expectSymmetricPsd(const Matrix6d& W) {
+  EXPECT_TRUE(W.allFinite());
+  EXPECT_TRUE(W.isApprox(W.transpose(), 1e-9)) << W;
+  const auto ev = Eigen::SelfAdjointEigenSolver<Matrix6d>(W).eigenvalues();
+  EXPECT_GE(ev(0), -1e-9 * std::max(1.0, ev(5)));
+}
+
+TEST_F(ObmNetMatchers, ObmNetAloneReportsFiniteDiagnostics) {
+  const PointCloud target = test::roomScene(1.5, 1);
+  const PointCloud source = makeSource(target, kTruth, 1.0, 0.0, 2);
+  ASSERT_LE(source.size(), 384u);  // the network sees every point
+  IcpParams icp;
+  icp.max_correspondence_distance = 2.0;
+  const ObmNetMatcher m(params(), icp);
+  EXPECT_EQ(m.name(), "obmnet");
+  EXPECT_NE(m.describe().find("random test model"), std::string::npos);
+  const MatchResult r = m.match(source, target, kTruth);
+  RecordProperty("match_status", toString(r.status));
+  RecordProperty("error_m", std::to_string(poseError(r.T_target_source, kTruth).first));
+  EXPECT_TRUE(r.T_target_source.matrix().allFinite());
+  EXPECT_NEAR(r.T_target_source.linear().determinant(), 1.0, 1e-9);
+  EXPECT_GT(r.alpha, 0.0);
+  EXPECT_GE(r.overlap, 0.0);
+  EXPECT_LE(r.overlap, 1.0);
+  EXPECT_GE(r.quality, 0.0);
+  EXPECT_LE(r.quality, 1.0);
+  EXPECT_TRUE(r.converged);
+  EXPECT_EQ(r.iterations, 0);
+  EXPECT_GT(r.runtime_ms, 0.0);
+  expectSymmetricPsd(r.information);
+  if (r.status != MatchStatus::TooFewCorrespondences) {
+    EXPECT_GT(r.information.trace(), 0.0);
+    EXPECT_GT(r.sigma, 0.0);
+  }
+  // Deterministic.
+  const MatchResult again = m.match(source, target, kTruth);
+  EXPECT_TRUE(again.T_target_source.isApprox(r.T_target_source, 0.0));
+  EXPECT_TRUE(again.information == r.information);
+}
+
+TEST_F(ObmNetMatchers, PreAlignComposesWithTheGuessOtherwiseIgnoresIt) {
+  const PointCloud target = test::roomScene(1.5, 3);
+  const PointCloud source = makeSource(target, kTruth, 1.0, 0.0, 4);
+  const Isometry3d guess = kTruth * perturbation(0.3, 4.0);
+  ObmNetMatcherParams p = params();
+  p.pre_align = false;
+  const ObmNetMatcher raw(p);
+  const MatchResult a = raw.match(source, target, guess);
+  const MatchResult b = raw.match(source, target, Isometry3d::Identity());
+  EXPECT_TRUE(a.T_target_source.isApprox(b.T_target_source, 0.0));
+  // pre_align: T = ΔT · T_init with ΔT the network's pose for the moved source.
+  p.pre_align = true;
+  const ObmNetMatcher pre(p);
+  const MatchResult c = pre.match(source, target, guess);
+  const MatchResult d = raw.match(source.transformed(guess, "target"), target);
+  EXPECT_TRUE(c.T_target_source.isApprox(d.T_target_source * guess, 1e-9))
+      << c.T_target_source.matrix() << "\n\n"
+      << (d.T_target_source * guess).matrix();
+}
+
+TEST_F(ObmNetMatchers, ExpectedFailuresAndBadModels) {
+  const PointCloud target = test::roomScene(1.5, 5);
+  IcpParams icp;
+  icp.min_correspondences = 6;
+  const ObmNetMatcher m(params("k16.pt"), icp);
+  PointCloud few;
+  for (int i = 0; i < 10; ++i) few.push_back(target.points[std::size_t(i)]);
+  const MatchResult r = m.match(few, target);
+  EXPECT_EQ(r.status, MatchStatus::TooFewPoints);  // the network's neighbourhoods need 16
+  EXPECT_NE(r.message.find("16"), std::string::npos) << r.message;
+  EXPECT_EQ(m.match(PointCloud(), target).status, MatchStatus::EmptyInput);
+  const ObmNetIcpMatcher mi(params("k16.pt"), icp);
+  EXPECT_EQ(mi.match(few, target).status, MatchStatus::TooFewPoints);
+  EXPECT_THROW(ObmNetMatcher(params("missing.pt")), IoError);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Every matcher that ends with ICP converges exactly on the noise-free room from a perturbed
+// guess, built through the YAML factory.
+using MatcherCase = std::tuple<std::string, std::string>;  // type, kernel
+class MatcherConvergence : public ObmNetMatchers,
+                           public ::testing::WithParamInterface<MatcherCase> {};
+
+TEST_P(MatcherConvergence, NoiseFreeRoomFromPerturbedGuess) {
+  const auto& [type, kernel] = GetParam();
+  const std::string yaml = "type: " + type + "\nobmnet: {model_path: " + dir() +
+                           "/small.pt, threads: 1}\n"
+                           "icp: {kernel: " +
+                           kernel +
+                           ", kernel_scale: 0.5, translation_tolerance: 1.0e-7, "
+                           "rotation_tolerance_deg: 1.0e-5, max_iterations: 100}\n";
+  const auto matcher = makeScanMatcher(ScanMatcherConfig::load(ConfigNode::fromString(yaml)));
+  EXPECT_EQ(matcher->name(), type);
+  const PointCloud target = test::roomScene(20.0, 6);
+  const PointCloud source = makeSource(target, kTruth, 0.6, 0.0, 7);
+  for (const auto& [trans, deg] : {std::pair{0.3, 5.0}, std::pair{-0.2, -6.0}}) {
+    const MatchResult r = matcher->match(source, target, kTruth * perturbation(trans, deg));
+    EXPECT_EQ(r.status, MatchStatus::Ok) << r.message;
+    const auto [et, er] = poseError(r.T_target_source, kTruth);
+    EXPECT_LT(et, 1e-4) << "translation error [m]";
+    EXPECT_LT(er, 1e-3) << "rotation error [deg]";
+    EXPECT_GT(r.alpha, 0.0);
+    EXPECT_GT(r.quality, 0.0);
+    EXPECT_LE(r.quality, 1.0);
+    expectSymmetricPsd(r.information);
+    EXPECT_GT(r.information.trace(), 0.0);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(MatchersKernels, MatcherConvergence,
+                         ::testing::Combine(::testing::Values("icp", "obmnet+icp"),
+                                            ::testing::Values("none", "huber", "cauchy",
+                                                              "geman_mcclure", "tukey")),
+                         [](const auto& info) {
+                           std::string n = std::get<0>(info.param) + "_" + std::get<1>(info.param);
+                           for (auto& ch : n)
+                             if (ch == '+') ch = '_';
+                           return n;
+                         });
+
+}  // namespace
+}  // namespace obm
