@@ -19,16 +19,26 @@
 
 namespace obm::mapping::detail {
 
+/// Bit i of a byte moved to bit 3·i (a 256-entry table: cheaper than shift-and-mask steps in
+/// the per-cell loop).
+struct SpreadTable {
+  std::uint32_t t[256];
+  SpreadTable() {
+    for (std::uint32_t i = 0; i < 256; ++i) {
+      std::uint32_t v = 0;
+      for (int b = 0; b < 8; ++b) v |= ((i >> b) & 1u) << (3 * b);
+      t[i] = v;
+    }
+  }
+};
+inline const SpreadTable kSpreadTable;
+
 /// Interleaves the 16-bit key coordinates into a 48-bit Morton code, most significant level
 /// first (bit 3·i+2 from k[0], 3·i+1 from k[1], 3·i from k[2] at level i).
 inline std::uint64_t mortonEncode(const octomap::OcTreeKey& k) {
-  const auto spread = [](std::uint64_t v) {
-    v &= 0xffffULL;
-    v = (v | (v << 16)) & 0x0000ff0000ffULL;
-    v = (v | (v << 8)) & 0x00f00f00f00fULL;
-    v = (v | (v << 4)) & 0x0c30c30c30c3ULL;
-    v = (v | (v << 2)) & 0x249249249249ULL;
-    return v;
+  const auto spread = [](std::uint64_t v) -> std::uint64_t {
+    return kSpreadTable.t[v & 0xff] |
+           (static_cast<std::uint64_t>(kSpreadTable.t[(v >> 8) & 0xff]) << 24);
   };
   return (spread(k[0]) << 2) | (spread(k[1]) << 1) | spread(k[2]);
 }
@@ -51,6 +61,7 @@ void sortUnique48(std::vector<std::uint64_t>& v, std::vector<std::uint64_t>& scr
 /// Reused buffers (one set per map, so repeated insertions do not reallocate).
 struct BatchScratch {
   std::vector<std::uint64_t> free_cells, occupied_cells, endpoints, tmp;
+  std::size_t beams = 0;  ///< beams cast by the last computeBatchUpdate
   /// Direct-mapped cache of recently pushed cells: beams leave the sensor through the same cells,
   /// so most repeats are caught here before they reach the sort.
   std::vector<std::uint64_t> recent;
@@ -86,6 +97,7 @@ void computeBatchUpdate(const Tree& tree, const octomap::Pointcloud& scan,
     slot = m;
     s.free_cells.push_back(m);
   };
+  s.beams = beams->size();
   octomap::KeyRay ray;
   for (std::size_t i = 0; i < beams->size(); ++i) {
     const octomap::point3d& p = (*beams)[i];

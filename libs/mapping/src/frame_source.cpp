@@ -95,7 +95,6 @@ class RgbdSource : public FrameSource {
   InputKind kind() const override { return kind_; }
   std::size_t size() const override { return seq_.size(); }
   const std::vector<double>& timestamps() const override { return times_; }
-  bool hasColor() const override { return has_color_; }
   PointCloud cloud(std::size_t i, bool with_color) override {
     const double max_d = max_depth_ > 0.0 ? max_depth_ : std::numeric_limits<double>::infinity();
     return seq_.cloud(i, 0.0, max_d, 1, with_color && has_color_);
@@ -126,7 +125,6 @@ class RawlogSource : public FrameSource {
   InputKind kind() const override { return InputKind::Rawlog; }
   std::size_t size() const override { return times_.size(); }
   const std::vector<double>& timestamps() const override { return times_; }
-  bool hasColor() const override { return true; }  // known per observation only; checked by use
   PointCloud cloud(std::size_t i, bool) override {
     if (i < next_)
       throw ContractError("rawlog frames must be read in increasing order ('" + path_ + "')");

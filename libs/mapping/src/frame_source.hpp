@@ -27,8 +27,6 @@ class FrameSource {
   virtual std::size_t size() const = 0;
   /// [s] time stamp of every frame.
   virtual const std::vector<double>& timestamps() const = 0;
-  /// Whether clouds can carry colours.
-  virtual bool hasColor() const { return false; }
   /// The calibration when the input is a KITTI folder (KITTI trajectories are camera poses).
   virtual const io::KittiCalib* kittiCalib() const { return nullptr; }
   /// Frame i in its sensor frame (the frame the trajectory's poses refer to). Calls must come in

@@ -114,10 +114,13 @@ InsertResult OccupancyMap::insert(const PointCloud& cloud_sensor,
   const octomap::point3d origin(t.x(), t.y(), t.z());
   const double maxrange = p.max_range > 0.0 ? p.max_range : -1.0;
   m.visit([&](auto& tree) {
-    if (p.batch_update)
+    if (p.batch_update) {
       detail::insertBatch(tree, scan, origin, maxrange, p.lazy_update, p.discretize, m.scratch);
-    else
+      r.beams = m.scratch.beams;
+    } else {
       tree.insertPointCloud(scan, origin, maxrange, p.lazy_update, p.discretize);
+      r.beams = p.discretize ? 0 : scan.size();  // OctoMap does not report its end cells
+    }
   });
   if (p.lazy_update) m.inner_dirty = true;
 

@@ -183,10 +183,6 @@ ExportSummary OctomapExporter::run() {
     OBM_LOG_WARN(kLog, (sum.frames - sum.frames_with_pose)
                            << " of " << sum.frames << " frames have no pose within "
                            << opt_.max_time_difference << " s and are skipped");
-  if (opt_.color && !source->hasColor())
-    OBM_LOG_WARN(kLog, "--color: input '" << opt_.input
-                                          << "' has no colour usable for the map; building an "
-                                             "occupancy-only OcTree");
 
   // ---- 3. Integration. The tree type follows the first cloud (colour or not).
   std::optional<OccupancyMap> map;
@@ -207,10 +203,11 @@ ExportSummary OctomapExporter::run() {
     const InsertResult r = map->insert(cloud, *pose[i]);
     sum.points += r.points_in;
     sum.rays += r.rays;
+    sum.beams += r.beams;
     ++sum.frames_integrated;
     if (opt_.progress) {
       std::ostringstream status;
-      status << "frame " << i << ", " << r.rays << " rays, " << std::fixed << std::setprecision(0)
+      status << "frame " << i << ", " << r.beams << " beams, " << std::fixed << std::setprecision(0)
              << r.time_ms << " ms";
       bar.update(k + 1, status.str());
     }
@@ -219,6 +216,11 @@ ExportSummary OctomapExporter::run() {
   if (!map) map.emplace(opt_.mapping, MapKind::Occupancy);
   sum.integrate_s = integrate.seconds();
   sum.color = map->kind() == MapKind::Color;
+  if (opt_.color && !sum.color && sum.frames_integrated > 0)
+    OBM_LOG_WARN(kLog, "--color: the clouds of '"
+                           << opt_.input
+                           << "' carry no colour (no PNG colour images registered to depth, or "
+                              "a rawlog without coloured clouds); wrote an occupancy-only OcTree");
 
   // ---- 4. Outputs, atomically.
   map->write(opt_.output);
@@ -243,7 +245,7 @@ std::string formatSummary(const ExportSummary& s) {
      << " with a pose, " << s.frames_selected << " selected)\n";
   os << "trajectory      " << s.trajectory_path << " (" << formatName(s.trajectory_format) << ")\n";
   os << "integrated      " << s.frames_integrated << " frames, " << s.points << " points, "
-     << s.rays << " rays" << (s.interrupted ? " (interrupted)" : "") << "\n";
+     << s.beams << " beams cast" << (s.interrupted ? " (interrupted)" : "") << "\n";
   os << "map             " << s.output << (s.color ? " (ColorOcTree)" : " (OcTree)") << "\n";
   os << formatStats(s.stats);
   if (!s.png.empty())

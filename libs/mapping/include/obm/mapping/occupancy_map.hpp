@@ -38,8 +38,11 @@ enum class CellState { Unknown, Free, Occupied };
 struct InsertResult {
   std::size_t points_in = 0;       ///< points in the given cloud
   std::size_t points_dropped = 0;  ///< non-finite or nearer than min_range
-  std::size_t rays = 0;            ///< rays cast (points after the pre-filter)
-  double time_ms = 0.0;            ///< [ms] wall time of the insertion
+  std::size_t rays = 0;            ///< points handed to the ray caster (after the pre-filter)
+  /// beams actually cast: `rays`, or the number of distinct end cells with `discretize` (0 =
+  /// unknown: batch_update off with discretize, OctoMap does not report it)
+  std::size_t beams = 0;
+  double time_ms = 0.0;  ///< [ms] wall time of the insertion
 };
 
 /// Size and content of the map. Volumes count leaf voxels (a pruned node of edge s counts s³).
@@ -59,7 +62,7 @@ struct MapStats {
   Eigen::Vector3d occupied_min = Eigen::Vector3d::Zero();
   Eigen::Vector3d occupied_max = Eigen::Vector3d::Zero();
   std::size_t num_insertions = 0;  ///< clouds inserted since construction / clear()
-  std::size_t num_rays = 0;        ///< rays cast since construction / clear()
+  std::size_t num_rays = 0;        ///< InsertResult::rays summed since construction / clear()
   bool empty() const noexcept { return num_leaves == 0; }
 };
 

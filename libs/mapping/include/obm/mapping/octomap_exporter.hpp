@@ -75,7 +75,8 @@ struct ExportSummary {
   std::size_t frames_selected = 0;  ///< with a pose and picked by `every`
   std::size_t frames_integrated = 0;
   std::size_t points = 0;    ///< points of the integrated frames
-  std::size_t rays = 0;      ///< rays cast (after the pre-filter)
+  std::size_t rays = 0;      ///< points handed to the ray caster (after the pre-filter)
+  std::size_t beams = 0;     ///< beams cast (one per distinct end cell with discretize)
   bool color = false;        ///< a ColorOcTree was built
   bool interrupted = false;  ///< `cancel` stopped the integration early
   MapStats stats;            ///< of the written map
