@@ -60,22 +60,29 @@ std::string serialise(octomap::AbstractOcTree& tree) {
 }
 
 template <class Tree>
-void expectSameTrees(bool lazy, bool discretize, double maxrange) {
+void expectSameTrees(bool lazy, bool discretize, double maxrange, int scans = 3,
+                     int prune_after = -1) {
   Tree ref(0.2), batch(0.2);
   BatchScratch scratch;
   const Eigen::Vector3d lo(-6.1, -4.3, -1.7), hi(9.3, 5.1, 2.3);
   std::mt19937 rng(11);
   std::normal_distribution<float> noise(0.f, 0.03f);
-  for (int k = 0; k < 3; ++k) {
+  for (int k = 0; k < scans; ++k) {
     obm::Isometry3d T = obm::Isometry3d::Identity();
-    T.linear() = Eigen::AngleAxisd(0.3 * k, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    T.translation() = Eigen::Vector3d(0.9 * k, -0.35 * k, 0.1 * k);
-    obm::PointCloud scan = obm::test::boxRoomScan(lo, hi, T, 180, -50.0, 50.0, 2.5);
+    T.linear() = Eigen::AngleAxisd(0.3 * (k % 3), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    T.translation() = Eigen::Vector3d(0.9 * (k % 3), -0.35 * (k % 3), 0.1 * (k % 3));
+    obm::PointCloud scan = obm::test::boxRoomScan(lo, hi, T, 120, -50.0, 50.0, 4.0);
     for (auto& p : scan.points) p += obm::Vector3f(noise(rng), noise(rng), noise(rng));
     const octomap::Pointcloud pc = toWorld(scan, T);
     const octomap::point3d origin(T.translation().x(), T.translation().y(), T.translation().z());
     ref.insertPointCloud(pc, origin, maxrange, lazy, discretize);
     obm::mapping::detail::insertBatch(batch, pc, origin, maxrange, lazy, discretize, scratch);
+    if (k == prune_after) {
+      ref.updateInnerOccupancy();
+      batch.updateInnerOccupancy();
+      ref.prune();
+      batch.prune();
+    }
   }
   ref.updateInnerOccupancy();
   batch.updateInnerOccupancy();
@@ -97,6 +104,16 @@ TEST(BatchUpdate, SameTreeAsInsertPointCloud) {
         expectSameTrees<octomap::OcTree>(lazy, discretize, maxrange);
       }
   expectSameTrees<octomap::ColorOcTree>(true, true, 6.0);
+}
+
+TEST(BatchUpdate, SameTreeOverPrunedClampedSpace) {
+  // Many overlapping scans clamp the free space (five misses reach clamping_min), pruning merges
+  // it into large leaves, and later scans then land in pruned, clamped leaves (OctoMap's early
+  // abort) and in pruned leaves that must be expanded.
+  for (double maxrange : {-1.0, 6.0}) {
+    SCOPED_TRACE(::testing::Message() << "maxrange " << maxrange);
+    expectSameTrees<octomap::OcTree>(true, true, maxrange, 9, 5);
+  }
 }
 
 }  // namespace

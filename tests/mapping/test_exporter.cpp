@@ -277,9 +277,11 @@ TEST(OctomapExporter, RealKittiSampleAtIdentity) {
   const std::string out = obm::test::scratchDir("exporter_real_out");
   auto o = baseOptions(seq, seq + "/identity.txt", out + "/map.bt");
   o.png = out + "/top.png";
+  o.every = 2;  // scans 0, 2, 4: enough for the checks, and quick under the sanitizers
   const auto sum = OctomapExporter(o).run();
-  EXPECT_EQ(sum.frames_integrated, 6u);
-  EXPECT_GT(sum.points, 6u * 100000u);
+  EXPECT_EQ(sum.frames, 6u);
+  EXPECT_EQ(sum.frames_integrated, 3u);
+  EXPECT_GT(sum.points, 3u * 100000u);
   const auto& s = sum.stats;
   EXPECT_GT(s.num_occupied_leaves, 1000u);
   EXPECT_GT(s.free_volume_m3, s.occupied_volume_m3);
