@@ -160,5 +160,16 @@ TEST(RegistrationConfig, ShippedIcpConfigHoldsTheDefaults) {
   EXPECT_EQ(c.confidence.degeneracy_threshold, cd.degeneracy_threshold);
 }
 
+#ifdef OBM_TEST_WITHOUT_OBMNET
+TEST(RegistrationConfig, ObmNetTypesNeedLibTorch) {
+  // This build has no LibTorch: the OBMNet matchers say so instead of failing later.
+  ScanMatcherConfig c;
+  c.type = "obmnet+icp";
+  c.obmnet.model_path = "any.pt";
+  EXPECT_THROW(makeScanMatcher(c), ConfigError);
+  EXPECT_THROW(ObmNetMatcher(c.obmnet), ConfigError);
+}
+#endif
+
 }  // namespace
 }  // namespace obm

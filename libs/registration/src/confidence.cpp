@@ -11,7 +11,7 @@
 namespace obm {
 namespace {
 
-constexpr std::size_t kChunk = 4096;
+constexpr std::size_t kChunk = 1024;
 
 /// Per-chunk partial sums (summed in chunk order: bit-identical for any thread count).
 struct Partial {

@@ -13,7 +13,7 @@
 namespace obm {
 namespace {
 
-constexpr std::size_t kChunk = 4096;
+constexpr std::size_t kChunk = 1024;
 constexpr std::int32_t kNoMatch = -1;
 
 /// Residual kind of one correspondence, fixed for the iteration's step (and LM retries).

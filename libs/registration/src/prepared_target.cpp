@@ -88,7 +88,7 @@ PreparedTarget::PreparedTarget(const PointCloud& target, const Options& options)
   // PCA normals: eigenvector of the smallest eigenvalue of the k-neighbourhood covariance.
   const std::size_t k =
       std::min<std::size_t>(static_cast<std::size_t>(options.normal_neighbors), n);
-  detail::parallelChunks(n, 2048, options.threads, [&](std::size_t, std::size_t b, std::size_t e) {
+  detail::parallelChunks(n, 1024, options.threads, [&](std::size_t, std::size_t b, std::size_t e) {
     std::vector<std::size_t> idx(k);
     std::vector<float> d2(k);
     for (std::size_t i = b; i < e; ++i) {
