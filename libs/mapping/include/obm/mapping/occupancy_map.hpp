@@ -115,9 +115,10 @@ class OccupancyMap {
   OccupancyMap& operator=(const OccupancyMap&) = delete;
 
   /// Reads a map written by writeBinary (`.bt`, gives an Occupancy map holding maximum-likelihood
-  /// values) or writeFull (`.ot`, OcTree or ColorOcTree with their probabilities). The parameters
-  /// other than the resolution and the probabilities stored in the file are `params`'. Throws
-  /// IoError when the file cannot be read and FormatError naming it when OctoMap rejects it.
+  /// values) or writeFull (`.ot`, OcTree or ColorOcTree with their log-odds). The files store
+  /// the resolution, which replaces `params.resolution`; every other parameter (probabilities,
+  /// ranges) is taken from `params`. Throws IoError when the file cannot be read and FormatError
+  /// naming it when OctoMap rejects it.
   static OccupancyMap read(const std::string& path, const MappingParams& params = {});
 
   const MappingParams& params() const noexcept;
@@ -159,6 +160,7 @@ class OccupancyMap {
   /// Centres and edges of the occupied leaves (for display or checks).
   void occupiedVoxels(std::vector<Eigen::Vector3d>& centers, std::vector<double>& sizes) const;
 
+  /// Counts and volumes of the map; walks every leaf (about 30 ms per million leaves).
   MapStats stats() const;
 
   /// Writes OctoMap's binary `.bt` (maximum likelihood: each leaf free or occupied) atomically,
