@@ -394,6 +394,11 @@ TEST(OccupancyMap, TopViewPngMatchesExtent) {
   o.pixel_size = 2 * kRes;
   const auto half = map.writeTopViewPng(dir + "/half.png", o);
   EXPECT_EQ(half.width, (info.width + 1) / 2);
+  // A height window below the wall's lowest voxel (world z from −0.6 m) hides it.
+  obm::mapping::TopViewOptions low;
+  low.z_max = -0.7;
+  const auto hidden = map.writeTopViewPng(dir + "/low.png", low);
+  EXPECT_EQ(hidden.occupied_pixels, 0u);
   OccupancyMap empty(exactParams());
   EXPECT_THROW(empty.writeTopViewPng(dir + "/empty.png"), obm::ContractError);
   EXPECT_FALSE(fs::exists(dir + "/empty.png"));
