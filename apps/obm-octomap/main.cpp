@@ -79,6 +79,9 @@ int main(int argc, char** argv) {
                "rawlog clouds); the top view then shows voxel colours");
   app.add_option("--max-dt", opt.max_time_difference,
                  "TUM trajectories: largest |t_frame - t_pose| to associate [s] [default: 0.02]");
+  app.add_option("--time-offset", opt.time_offset,
+                 "TUM trajectories: added to the pose time stamps before association [s], e.g. "
+                 "-1600000000 for UNIX-time poses of a sequence-time KITTI folder [default: 0]");
   app.add_option("--max-depth", opt.rgbd_max_depth,
                  "RGB-D inputs: drop depth beyond this [m], 0 = keep [default: 0]");
   app.add_option("-c,--config", config,

@@ -230,6 +230,14 @@ TEST(OctomapExporter, BadInputNamesTheFileAndWritesNothing) {
   late.trajectory = out + "/late.txt";
   expectFailsWritingNothing<obm::FormatError>(late, "late.txt");
 
+  // ... which a time offset repairs.
+  auto shifted = late;
+  shifted.time_offset = -100.0;
+  shifted.output = out + "/shifted.bt";
+  shifted.png.clear();
+  EXPECT_EQ(OctomapExporter(shifted).run().frames_integrated, 3u);
+  fs::remove(out + "/shifted.bt");
+
   auto wrong_format = o;
   wrong_format.format = TrajectoryFormat::Tum;
   expectFailsWritingNothing<obm::FormatError>(wrong_format, "poses.txt");

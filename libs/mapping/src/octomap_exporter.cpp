@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -117,6 +118,7 @@ OctomapExporter::OctomapExporter(ExporterOptions options) : opt_(std::move(optio
   if (!opt_.png.empty() && lower(fs::path(opt_.png).extension().string()) != ".png")
     throw ConfigError("--png '" + opt_.png + "': the picture must end in .png");
   if (opt_.every < 1) throw ConfigError("--every: must be >= 1");
+  if (!std::isfinite(opt_.time_offset)) throw ConfigError("--time-offset: must be finite");
   if (!(opt_.max_time_difference > 0.0)) throw ConfigError("--max-dt: must be > 0 [s]");
   opt_.mapping.validate();
 }
@@ -163,14 +165,25 @@ ExportSummary OctomapExporter::run() {
   } else {
     const io::Trajectory traj = io::readTumTrajectory(sum.trajectory_path);
     const auto matches = io::associateTimestamps(source->timestamps(), io::timestampsOf(traj),
-                                                 opt_.max_time_difference);
+                                                 opt_.max_time_difference, opt_.time_offset);
     for (const auto& m : matches) pose[m.first] = traj[m.second].T;
-    if (matches.empty())
-      throw FormatError(sum.trajectory_path, 0,
-                        "no pose time stamp is within " + std::to_string(opt_.max_time_difference) +
-                            " s of a frame of '" + opt_.input + "' (" +
-                            std::to_string(traj.size()) + " poses, " + std::to_string(sum.frames) +
-                            " frames; see --max-dt)");
+    if (matches.empty()) {
+      // Name both time ranges: a constant offset (sequence time vs. UNIX time) is the usual cause.
+      const auto range = [](const std::vector<double>& t) {
+        std::ostringstream os;
+        os << std::setprecision(15);
+        if (t.empty()) return std::string("none");
+        os << *std::min_element(t.begin(), t.end()) << " .. "
+           << *std::max_element(t.begin(), t.end()) << " s";
+        return os.str();
+      };
+      std::ostringstream msg;
+      msg << "no pose time stamp is within " << opt_.max_time_difference << " s of a frame of '"
+          << opt_.input << "' (" << traj.size() << " poses at " << range(io::timestampsOf(traj))
+          << "; " << sum.frames << " frames at " << range(source->timestamps())
+          << "; see --max-dt, --time-offset)";
+      throw FormatError(sum.trajectory_path, 0, msg.str());
+    }
   }
   std::vector<std::size_t> selected;
   for (std::size_t i = 0; i < sum.frames; ++i) {

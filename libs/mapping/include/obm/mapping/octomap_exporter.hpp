@@ -55,6 +55,9 @@ struct ExporterOptions {
   std::size_t every = 1;  ///< integrate every N-th frame (1 = all)
   /// [s] strict bound on |t_frame − t_pose| for TUM trajectories (TUM associate.py's default).
   double max_time_difference = 0.02;
+  /// [s] added to the TUM trajectory's time stamps before association (e.g. −UNIX start time
+  /// when the poses carry UNIX time and the frames sequence time).
+  double time_offset = 0.0;
   /// [m] RGB-D inputs: depth beyond this is dropped before insertion (0 = keep all; beams longer
   /// than mapping.max_range then clear free space up to it without marking an end point).
   double rgbd_max_depth = 0.0;
