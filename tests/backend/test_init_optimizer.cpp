@@ -233,7 +233,26 @@ TEST(Optimizer, OptionsLoadFromYaml) {
   EXPECT_THROW(Options::load(ConfigNode::fromString("loop_loss: bogus\n", "g.yaml")), ConfigError);
   EXPECT_THROW(Options::load(ConfigNode::fromString("max_iteration: 3\n", "g.yaml")), ConfigError);
   EXPECT_THROW(parseLoss("huber:-1"), ConfigError);
+  EXPECT_EQ(Options::load(ConfigNode::fromString("robust_init: odometry\n", "g.yaml")).robust_init,
+            Options::RobustInit::Odometry);
+  EXPECT_EQ(Options::load(ConfigNode::fromString("sparse_library: suite_sparse\n", "g.yaml"))
+                .sparse_library,
+            Options::SparseLibrary::SuiteSparse);
+  EXPECT_THROW(Options::load(ConfigNode::fromString("robust_init: maybe\n", "g.yaml")),
+               ConfigError);
   // The shipped config file loads.
+  // Every sparse library gives the same solution.
+  auto syn = makeSyntheticGraph(gridSpec(0.05, 0.02, 6));
+  double reference = -1;
+  for (auto lib : {Options::SparseLibrary::Auto, Options::SparseLibrary::SuiteSparse,
+                   Options::SparseLibrary::CxSparse, Options::SparseLibrary::EigenSparse}) {
+    PoseGraph g = syn.graph;
+    Options lo;
+    lo.sparse_library = lib;
+    const Summary s = optimizeGraph(g, lo);
+    if (reference < 0) reference = s.final_chi2;
+    EXPECT_NEAR(s.final_chi2, reference, 1e-7 * reference);
+  }
   const Options shipped = Options::load(
       ConfigNode::loadFile(std::string(OBM_SOURCE_DIR) + "/config/graph.yaml").child("optimizer"));
   EXPECT_EQ(shipped.init, InitMethod::Chordal);

@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <deque>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <sstream>
@@ -156,9 +157,11 @@ Options Options::load(const ConfigNode& n) {
       o.robust_init = RobustInit::Chordal;
     else if (v == "robust_chordal")
       o.robust_init = RobustInit::RobustChordal;
+    else if (v == "best")
+      o.robust_init = RobustInit::Best;
     else
       throw ConfigError(n.where("robust_init") + ": unknown value '" + v +
-                        "' (expected odometry, chordal or robust_chordal)");
+                        "' (expected best, odometry, chordal or robust_chordal)");
   }
   n.get("fixed", o.fixed);
   if (o.max_iterations < 0) throw ConfigError(n.where("max_iterations") + ": must be ≥ 0");
@@ -396,31 +399,39 @@ struct Optimizer::Impl {
     s.num_nodes = graph.numNodes();
     s.num_edges = graph.numEdges();
 
-    Timer init_timer;
+    // Initial guesses to try. Normally one; in a robust mode with the chordal default and
+    // robust_init = best, three starts whose solutions compete on the robust objective.
+    enum class Start { AsIs, File, Spanning, Chordal, RobustChordal };
+    std::vector<Start> starts{Start::AsIs};
+    const bool robust = opt.loop_loss.kind != LossKind::None;
     if (!initialized) {
-      InitMethod m = opt.init;
-      const bool robust = opt.loop_loss.kind != LossKind::None;
-      if (m == InitMethod::Chordal && robust && opt.robust_init == Options::RobustInit::Odometry) {
-        m = InitMethod::Spanning;
-        initialize(graph, m);
-      } else if (m == InitMethod::Chordal && robust &&
-                 opt.robust_init == Options::RobustInit::RobustChordal) {
-        const double phi = opt.loop_loss.kind == LossKind::Dcs
-                               ? opt.loop_loss.scale
-                               : opt.loop_loss.scale * opt.loop_loss.scale;
-        initializeRobustChordal(graph, phi);
-      } else {
-        initialize(graph, m);
+      s.init = opt.init;
+      starts = {opt.init == InitMethod::File       ? Start::File
+                : opt.init == InitMethod::Spanning ? Start::Spanning
+                                                   : Start::Chordal};
+      if (opt.init == InitMethod::Chordal && robust) {
+        switch (opt.robust_init) {
+          case Options::RobustInit::Odometry:
+            starts = {Start::Spanning};
+            break;
+          case Options::RobustInit::Chordal:
+            starts = {Start::Chordal};
+            break;
+          case Options::RobustInit::RobustChordal:
+            starts = {Start::RobustChordal};
+            break;
+          case Options::RobustInit::Best:
+            starts = {Start::RobustChordal, Start::Spanning, Start::Chordal};
+            break;
+        }
       }
-      s.init = m;
       initialized = true;
     }
-    s.init_time_s = init_timer.seconds();
-    s.init_chi2 = chi2(graph);
+    const double phi = opt.loop_loss.kind == LossKind::Dcs
+                           ? opt.loop_loss.scale
+                           : opt.loop_loss.scale * opt.loop_loss.scale;
 
-    Timer solve_timer;
     syncProblem();
-    posesToBlocks();
     const auto ids = graph.nodeIds();
     std::unordered_map<NodeId, int> index;
     index.reserve(ids.size());
@@ -436,11 +447,15 @@ struct Optimizer::Impl {
     }
 
     if (graph.numEdges() == 0 || opt.max_iterations == 0) {
-      s.final_chi2 = chi2(graph);
+      Timer init_timer;
+      if (starts.front() == Start::Spanning) initialize(graph, InitMethod::Spanning);
+      if (starts.front() == Start::Chordal || starts.front() == Start::RobustChordal)
+        initialize(graph, InitMethod::Chordal);
+      s.init_time_s = init_timer.seconds();
+      s.init_chi2 = s.final_chi2 = chi2(graph);
       s.converged = graph.numEdges() == 0;
       s.usable = true;
       s.message = graph.numEdges() == 0 ? "no edges" : "max_iterations = 0";
-      s.solve_time_s = solve_timer.seconds();
       s.time_s = total.seconds();
       return s;
     }
@@ -466,18 +481,66 @@ struct Optimizer::Impl {
     CallbackAdapter cb(s.per_iteration, callback);
     so.callbacks.push_back(&cb);
 
-    ceres::Solver::Summary cs;
-    ceres::Solve(so, problem.get(), &cs);
-    blocksToPoses();
-    s.iterations = cs.num_successful_steps + cs.num_unsuccessful_steps;
-    s.converged = cs.termination_type == ceres::CONVERGENCE;
-    s.usable = cs.IsSolutionUsable();
-    s.message = cs.message;
-    s.solve_time_s = solve_timer.seconds();
+    const PoseGraph start_graph = starts.size() > 1 ? graph : PoseGraph{};
+    PoseGraph best_graph;
+    double best_cost = std::numeric_limits<double>::infinity();
+    std::string best_name;
+    for (std::size_t k = 0; k < starts.size(); ++k) {
+      if (k > 0) graph = start_graph;
+      Timer init_timer;
+      const char* name = "as given";
+      switch (starts[k]) {
+        case Start::AsIs:
+          break;
+        case Start::File:
+          name = "file";
+          break;
+        case Start::Spanning:
+          name = "odometry spanning tree";
+          initialize(graph, InitMethod::Spanning);
+          break;
+        case Start::Chordal:
+          name = "chordal";
+          initialize(graph, InitMethod::Chordal);
+          break;
+        case Start::RobustChordal:
+          name = "re-weighted chordal";
+          initializeRobustChordal(graph, phi);
+          break;
+      }
+      s.init_time_s += init_timer.seconds();
+      const double init_chi2 = chi2(graph);
+      Timer solve_timer;
+      posesToBlocks();
+      ceres::Solver::Summary cs;
+      ceres::Solve(so, problem.get(), &cs);
+      blocksToPoses();
+      s.solve_time_s += solve_timer.seconds();
+      s.iterations += cs.num_successful_steps + cs.num_unsuccessful_steps;
+      if (!cs.IsSolutionUsable())
+        OBM_LOG_WARN(kLog, "solver failed from the " << name << " start: " << cs.message);
+      OBM_LOG_DEBUG(kLog, cs.FullReport());
+      if (starts.size() > 1)
+        OBM_LOG_INFO(kLog, "robust start '" << name << "': objective " << 2.0 * cs.final_cost
+                                            << ", chi2 " << chi2(graph));
+      if (cs.IsSolutionUsable() && (2.0 * cs.final_cost < best_cost || best_name.empty())) {
+        best_cost = 2.0 * cs.final_cost;
+        best_name = name;
+        s.init_chi2 = init_chi2;
+        s.converged = cs.termination_type == ceres::CONVERGENCE;
+        s.usable = true;
+        s.message = cs.message;
+        if (starts.size() > 1) best_graph = graph;
+      }
+    }
+    if (starts.size() > 1 && !best_name.empty()) {
+      graph = std::move(best_graph);
+      s.message =
+          "best of " + std::to_string(starts.size()) + " starts: " + best_name + "; " + s.message;
+    }
+    if (best_name.empty()) s.message = "solver failed";
     s.time_s = total.seconds();
     s.final_chi2 = chi2(graph);
-    if (!s.usable) OBM_LOG_WARN(kLog, "solver failed: " << cs.message);
-    OBM_LOG_DEBUG(kLog, cs.FullReport());
     return s;
   }
 

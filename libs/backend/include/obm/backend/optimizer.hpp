@@ -48,8 +48,9 @@ struct Options {
     Odometry,       ///< the odometry spanning tree (never sees a loop edge)
     Chordal,        ///< the plain (least-squares) chordal relaxation
     RobustChordal,  ///< re-weighted chordal relaxation (initializeRobustChordal)
+    Best,           ///< solve from all three; keep the solution with the lowest robust objective
   };
-  RobustInit robust_init = RobustInit::RobustChordal;
+  RobustInit robust_init = RobustInit::Best;
   std::vector<NodeId> fixed;  ///< nodes held constant in addition to the graph's `FIX` nodes
 
   /// Reads the keys of `node` (all optional); throws ConfigError naming file and key.
