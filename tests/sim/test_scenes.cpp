@@ -28,9 +28,11 @@ UrbanSceneParams smallCity() {
   UrbanSceneParams p;
   p.blocks_x = 1;
   p.blocks_y = 1;
-  p.block_length_x = 70;
-  p.block_length_y = 70;
-  p.margin = 10;
+  p.block_length_x = 60;
+  p.block_length_y = 60;
+  p.building_depth_max = 12;
+  p.margin = 5;
+  p.terrain_resolution = 1.5;
   p.seed = 11;
   return p;
 }

@@ -34,9 +34,11 @@ scene:
   type: urban_grid
   blocks_x: 1
   blocks_y: 1
-  block_length_x: 70.0
-  block_length_y: 70.0
-  margin: 10.0
+  block_length_x: 60.0
+  block_length_y: 60.0
+  building_depth_max: 12.0
+  margin: 5.0
+  terrain_resolution: 1.5
   car_probability: 0.8
 sensor:
   type: lidar
@@ -108,7 +110,8 @@ std::vector<std::string> readLines(const std::string& path) {
   return lines;
 }
 
-// Nearest-neighbour distances to a fixed reference cloud (voxel hash, exact up to 1 m).
+// Nearest-neighbour distances to a fixed reference cloud (voxel hash of 0.2 m cells, exact up to
+// 0.2 m; farther neighbours are reported as 0.2 m).
 class NnGrid {
  public:
   explicit NnGrid(const std::vector<Eigen::Vector3d>& ref) : ref_(ref) {
@@ -119,7 +122,7 @@ class NnGrid {
     out.reserve(query.size());
     for (const auto& q : query) {
       const Eigen::Vector3i c = cellOf(q);
-      double best = 1.0;
+      double best = kCell;
       for (int dx = -1; dx <= 1; ++dx)
         for (int dy = -1; dy <= 1; ++dy)
           for (int dz = -1; dz <= 1; ++dz) {
@@ -133,7 +136,7 @@ class NnGrid {
   }
 
  private:
-  static constexpr double kCell = 0.5;
+  static constexpr double kCell = 0.2;
   static Eigen::Vector3i cellOf(const Eigen::Vector3d& p) {
     return (p / kCell).array().floor().cast<int>();
   }
@@ -199,16 +202,17 @@ TEST(Simulator, KittiLayoutIsCompleteAndItsGroundTruthAlignsConsecutiveSweeps) {
   const NnGrid grid(A);
   auto residual = [&](const Eigen::Isometry3d& T, double* median) {
     std::vector<Eigen::Vector3d> B;
-    for (std::size_t i = 0; i < Bs.size(); i += 3) B.push_back(T * Bs[i]);
+    const std::size_t step = std::max<std::size_t>(1, Bs.size() / 4000);  // ~4000 queries
+    for (std::size_t i = 0; i < Bs.size(); i += step) B.push_back(T * Bs[i]);
     const auto d = grid.distances(B);
     if (median) *median = quantile(d, 0.5);
     double m = 0;
-    for (double x : d) m += std::min(x, 0.5);
+    for (double x : d) m += x;
     return m / static_cast<double>(d.size());
   };
   double med = 0;
   const double best = residual(T_ab, &med);
-  EXPECT_LT(med, 0.03) << "median NN residual with the true pose";
+  EXPECT_LT(med, 0.05) << "median NN residual with the true pose (ring spacing ~0.1 m at 15 m)";
   for (int axis = 0; axis < 3; ++axis)
     for (double sgn : {-1.0, 1.0}) {
       const Eigen::Isometry3d dt(Eigen::Translation3d(0.1 * sgn * Eigen::Vector3d::Unit(axis)));
@@ -431,6 +435,7 @@ TEST(SimulatorBadInput, ExistingOutputIsKeptAndCancellingLeavesNothing) {
   const std::string dir = test::scratchDir("sim_existing");
   SimConfig cfg = SimConfig::loadFile(writeConfig(dir, "urban.yaml", kUrbanYaml));
   cfg.output.pictures = false;
+  cfg.frames = 1;
   fs::create_directories(dir + "/out");
   std::ofstream(dir + "/out/keep.txt") << "mine";
   EXPECT_THROW(SequenceSimulator(cfg).run(quiet(dir + "/out")), IoError);

@@ -78,12 +78,13 @@ class SegmentIndex {
     double va, vb;
   };
   int key(double v) const { return static_cast<int>(std::floor(v / cell_)); }
-  static long long pack(int i, int j) {
-    return (static_cast<long long>(i) << 32) ^ static_cast<long long>(static_cast<unsigned>(j));
+  static unsigned long long pack(int i, int j) {
+    return (static_cast<unsigned long long>(static_cast<unsigned>(i)) << 32) |
+           static_cast<unsigned long long>(static_cast<unsigned>(j));
   }
   double cell_;
   std::vector<Seg> seg_;
-  std::unordered_map<long long, std::vector<int>> grid_;
+  std::unordered_map<unsigned long long, std::vector<int>> grid_;
 };
 
 /// A boolean raster over a rectangle; oriented rectangles are tested and marked by their cells.
