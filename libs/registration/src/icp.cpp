@@ -52,26 +52,44 @@ Isometry3d applyStep(const Isometry3d& T, const Vector6d& delta) {
   return out;
 }
 
-/// Robust cost (and, when `normal` is set, the IRLS normal equations H δ = −g) of the fixed
-/// correspondences at pose T. Jacobians w.r.t. the left perturbation of p' = T·p:
+/// Correspondence of source point i at p' = T·p_i within `gate` (kind kNone when none).
+Correspondence findCorrespondence(const Problem& pb, const Eigen::Vector3d& pt, double gate) {
+  std::size_t j = 0;
+  float d2 = 0.f;
+  if (!pb.target.nearest(pt.cast<float>(), gate, j, d2)) return {};
+  std::uint8_t kind = kPoint;
+  if (pb.params.metric == IcpMetric::PointToPlane)
+    kind =
+        pb.target.normalValid()[j] ? kPlane : (pb.params.point_to_point_fallback ? kPoint : kNone);
+  if (kind == kNone) return {};
+  return Correspondence{static_cast<std::int32_t>(j), kind};
+}
+
+/// Robust cost (and, when `normal` is set, the IRLS normal equations H δ = −g) of the
+/// correspondences at pose T. With `search_gate` > 0 the correspondences are searched first (in
+/// the same pass, so one thread barrier per ICP iteration); otherwise `corr` is used as is.
+/// Jacobians w.r.t. the left perturbation of p' = T·p:
 ///   plane: r = nᵀ(p' − q),  J = [nᵀ, (p' × n)ᵀ]
 ///   point: r = p' − q,      J = [I, −[p']×]
-Normal evaluate(const Problem& pb, const std::vector<Correspondence>& corr, const Isometry3d& T,
-                bool normal) {
+Normal evaluate(const Problem& pb, std::vector<Correspondence>& corr, const Isometry3d& T,
+                bool normal, double search_gate, int threads) {
   const Eigen::Matrix3d R = T.linear();
   const Eigen::Vector3d t = T.translation();
   const auto& tgt = pb.target.cloud().points;
   const auto& nrm = pb.target.normals();
   const auto kernel = pb.params.kernel;
   const double c = pb.params.kernel_scale;
+  const bool search = search_gate > 0.0;
+  if (search) corr.assign(pb.src.size(), Correspondence{});
   std::vector<Normal> partials(detail::numChunks(pb.src.size(), kChunk));
-  detail::parallelChunks(pb.src.size(), kChunk, pb.params.threads,
+  detail::parallelChunks(pb.src.size(), kChunk, threads,
                          [&](std::size_t ci, std::size_t b, std::size_t e) {
                            Normal& P = partials[ci];
                            for (std::size_t i = b; i < e; ++i) {
+                             const Eigen::Vector3d pt = R * pb.src[i].cast<double>() + t;
+                             if (search) corr[i] = findCorrespondence(pb, pt, search_gate);
                              const Correspondence& k = corr[i];
                              if (k.kind == kNone) continue;
-                             const Eigen::Vector3d pt = R * pb.src[i].cast<double>() + t;
                              const Eigen::Vector3d q = tgt[std::size_t(k.target)].cast<double>();
                              ++P.count;
                              if (k.kind == kPlane) {
@@ -112,35 +130,6 @@ Normal evaluate(const Problem& pb, const std::vector<Correspondence>& corr, cons
   return sum;
 }
 
-/// Nearest-neighbour correspondences of every source point at pose T within `gate`.
-std::size_t findCorrespondences(const Problem& pb, const Isometry3d& T, double gate,
-                                std::vector<Correspondence>& corr) {
-  const Eigen::Matrix3d R = T.linear();
-  const Eigen::Vector3d t = T.translation();
-  const auto& valid = pb.target.normalValid();
-  const bool plane = pb.params.metric == IcpMetric::PointToPlane;
-  const bool fallback = pb.params.point_to_point_fallback;
-  corr.assign(pb.src.size(), Correspondence{});
-  std::vector<std::size_t> counts(detail::numChunks(pb.src.size(), kChunk), 0);
-  detail::parallelChunks(pb.src.size(), kChunk, pb.params.threads,
-                         [&](std::size_t ci, std::size_t b, std::size_t e) {
-                           for (std::size_t i = b; i < e; ++i) {
-                             const Eigen::Vector3d pt = R * pb.src[i].cast<double>() + t;
-                             std::size_t j = 0;
-                             float d2 = 0.f;
-                             if (!pb.target.nearest(pt.cast<float>(), gate, j, d2)) continue;
-                             std::uint8_t kind = kPoint;
-                             if (plane) kind = valid[j] ? kPlane : (fallback ? kPoint : kNone);
-                             if (kind == kNone) continue;
-                             corr[i] = Correspondence{static_cast<std::int32_t>(j), kind};
-                             ++counts[ci];
-                           }
-                         });
-  std::size_t n = 0;
-  for (auto c : counts) n += c;
-  return n;
-}
-
 /// Solves (H + damping) δ = −g. Gauss–Newton adds a tiny ridge so that exactly unconstrained
 /// directions (a single plane) get a zero step instead of a failed factorisation.
 Vector6d solveStep(const Matrix6d& H, const Vector6d& g, double lambda, bool lm) {
@@ -173,7 +162,9 @@ IcpOutcome runIcp(const std::vector<Vector3f>& source_points, const PreparedTarg
   std::vector<Correspondence> corr;
   for (int it = 0; it < params.max_iterations; ++it) {
     out.iterations = it + 1;
-    const std::size_t n = findCorrespondences(pb, T, gate, corr);
+    // Search + normal equations in one parallel pass.
+    const Normal ne = evaluate(pb, corr, T, true, gate, params.threads);
+    const std::size_t n = ne.count;
     out.num_correspondences = n;
     if (n < static_cast<std::size_t>(params.min_correspondences)) {
       out.T_target_source = T;
@@ -183,7 +174,6 @@ IcpOutcome runIcp(const std::vector<Vector3f>& source_points, const PreparedTarg
                     std::to_string(params.min_correspondences) + ")";
       return out;
     }
-    const Normal ne = evaluate(pb, corr, T, true);
     Vector6d delta = Vector6d::Zero();
     if (!lm) {
       delta = solveStep(ne.H, ne.g, 0.0, false);
@@ -195,7 +185,8 @@ IcpOutcome runIcp(const std::vector<Vector3f>& source_points, const PreparedTarg
       for (int attempt = 0; attempt < 10 && !accepted; ++attempt) {
         const Vector6d d = solveStep(ne.H, ne.g, lambda, true);
         const Isometry3d T_new = applyStep(T, d);
-        const double cost = evaluate(pb, corr, T_new, false).cost;
+        // Residuals only (no search): cheap enough for one thread, which avoids a barrier.
+        const double cost = evaluate(pb, corr, T_new, false, 0.0, 1).cost;
         if (cost <= ne.cost) {
           accepted = true;
           delta = d;
