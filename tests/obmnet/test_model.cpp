@@ -91,14 +91,14 @@ TEST(ObmNet, EvalIsDeterministicAndSeedMatters) {
   EXPECT_TRUE(torch::equal(o1.R, o2.R));
   EXPECT_TRUE(torch::equal(o1.t, o2.t));
   EXPECT_TRUE(torch::equal(o1.membership, o2.membership));
-  // The same weights with another Gumbel seed draw other overlap samples.
+  // The same weights with another Gumbel seed draw other overlap samples (hard draws at inference).
   auto cfg = smallConfig();
   cfg.seed = 99;
   torch::manual_seed(2);
   ObmNet b(cfg);
   b->eval();
   const auto o3 = b->forward(src, tgt);
-  EXPECT_FALSE(torch::equal(o1.membership, o3.membership));
+  EXPECT_FALSE(torch::equal(o1.R, o3.R));
 }
 
 TEST(ObmNet, TrainingIsDeterministicUnderAFixedSeed) {

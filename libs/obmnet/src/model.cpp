@@ -89,9 +89,10 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
       overlap = 0.5 * (os_p.overlap + os_q.overlap);
       if (bias_) {
         alpha = bias_->forward(os_p.points, os_q.points);
-        // Which source points the sampler drew: soft membership in training; at inference the
-        // K hard draws themselves (a point drawn at least once belongs to the overlap region).
-        membership = is_training() ? os_p.membership : os_p.selection.amax(1);  // B×N, 0/1
+        // Membership of each source point in the sampled overlap region: the probability
+        // 1 − (1 − π_i)^K that K draws from π pick it at least once. The same soft value in
+        // training and at inference, so the SVD weights do not change between the two modes.
+        membership = os_p.membership;
       }
     }
 
@@ -121,11 +122,11 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
     const auto pseudo = torch::bmm(tgt, match.transpose(1, 2));  // B×3×N
     // Step 7: inlier evaluation.
     const auto w = inlier_->forward(src_cur, pseudo, src_knn1);  // B×N in (0, 1]
-    // Step 8: weighted SVD with w·α. α is the bias of the common structure: it multiplies the
-    // weights of the correspondences in the sampled overlap region (membership m_i), so that
-    // ω_i = w_i·(1 + (α − 1)·m_i) — ω_i = α·w_i inside the overlap, w_i outside. (A single α on
-    // every weight would cancel in the normalised weighted centroids.)
-    const auto omega = w * (1.0 + (alpha.unsqueeze(1) - 1.0) * membership);
+    // Step 8: weighted SVD with w·α. α is the bias of the common structure: it adds weight to the
+    // correspondences in the sampled overlap region (membership m_i), ω_i = w_i·(1 + α·m_i), so
+    // overlapping points count (1 + α) times inside the overlap and once outside. α > 0 keeps every
+    // weight positive; a single α on every weight would cancel in the normalised centroids.
+    const auto omega = w * (1.0 + alpha.unsqueeze(1) * membership);
     const auto T_step = obmnet::weightedProcrustes(src_cur, pseudo, omega);
     T = obmnet::compose(T_step, T);
 

@@ -2,6 +2,7 @@
 
 #include <torch/torch.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -26,7 +27,8 @@ TrainConfig TrainConfig::load(const ConfigNode& root) {
   const ConfigNode t = root.child("train");
   t.checkKeys({"pairs", "val_pairs_protocol", "batch_size", "epochs", "pairs_per_epoch",
                "val_pairs", "lr", "weight_decay", "lr_steps", "lr_gamma", "normalize_radius",
-               "recall_deg", "recall_trans", "max_grad_norm", "threads", "seed", "max_hours"});
+               "recall_deg", "recall_trans", "max_grad_norm", "threads", "seed", "max_hours",
+               "curriculum_epochs"});
   c.protocol = PairProtocol::load(t.child("pairs"));
   c.val_protocol =
       t.has("val_pairs_protocol") ? PairProtocol::load(t.child("val_pairs_protocol")) : c.protocol;
@@ -45,6 +47,7 @@ TrainConfig TrainConfig::load(const ConfigNode& root) {
   t.get("threads", c.threads);
   t.get("seed", c.seed);
   t.get("max_hours", c.max_hours);
+  t.get("curriculum_epochs", c.curriculum_epochs);
   auto positive = [&](const char* key, double v) {
     if (!(v > 0)) throw ConfigError(t.where(key) + ": must be > 0");
   };
@@ -120,13 +123,26 @@ std::string csvRow(const EpochStats& s) {
 
 }  // namespace
 
-PairSampler objectPairSampler(std::vector<PointCloud> clouds, PairProtocol protocol) {
+PairProtocol curriculumProtocol(const PairProtocol& target, int epoch, int curriculum_epochs) {
+  if (curriculum_epochs <= 0 || epoch >= curriculum_epochs) return target;
+  const double f = std::clamp(static_cast<double>(epoch - 1) / curriculum_epochs, 0.0, 1.0);
+  PairProtocol p = target;
+  if (target.partial_keep > 0)
+    p.partial_keep = static_cast<int>(
+        std::lround(target.num_points - f * (target.num_points - target.partial_keep)));
+  p.jitter_sigma = f * target.jitter_sigma;
+  p.outliers = static_cast<int>(std::lround(f * target.outliers));
+  return p;
+}
+
+PairSampler objectPairSampler(std::vector<PointCloud> clouds, PairProtocol protocol,
+                              int curriculum_epochs) {
   if (clouds.empty()) throw ContractError("objectPairSampler: no training clouds");
   auto shared = std::make_shared<const std::vector<PointCloud>>(std::move(clouds));
-  return [shared, protocol](std::mt19937_64& rng) {
+  return [shared, protocol, curriculum_epochs](std::mt19937_64& rng, int epoch) {
     std::uniform_int_distribution<std::size_t> pick(0, shared->size() - 1);
     const auto& c = (*shared)[pick(rng)];
-    return makePair(c, protocol, rng);
+    return makePair(c, curriculumProtocol(protocol, epoch, curriculum_epochs), rng);
   };
 }
 
@@ -174,9 +190,9 @@ struct Trainer::Impl {
       static_cast<torch::optim::AdamOptions&>(g.options()).lr(lr);
   }
 
-  std::vector<RegistrationPair> drawPairs(std::mt19937_64& rng, int n) const {
+  std::vector<RegistrationPair> drawPairs(std::mt19937_64& rng, int n, int epoch) const {
     std::vector<RegistrationPair> pairs;
-    for (int i = 0; i < n; ++i) pairs.push_back(sampler(rng));
+    for (int i = 0; i < n; ++i) pairs.push_back(sampler(rng, epoch));
     return pairs;
   }
 
@@ -294,7 +310,8 @@ struct Trainer::Impl {
 Trainer::Trainer(TrainConfig config, std::vector<PointCloud> train_clouds,
                  std::vector<PointCloud> val_clouds, std::string out_dir) {
   auto val = objectValidationPairs(val_clouds, config.val_protocol, config.val_pairs, config.seed);
-  auto sampler = objectPairSampler(std::move(train_clouds), config.protocol);
+  auto sampler =
+      objectPairSampler(std::move(train_clouds), config.protocol, config.curriculum_epochs);
   impl_ = std::make_unique<Impl>(std::move(config), std::move(sampler), std::move(val),
                                  std::move(out_dir));
 }
@@ -313,11 +330,12 @@ ValidationScores Trainer::validate() {
 double Trainer::measureThroughput(int n_batches) {
   std::mt19937_64 rng(impl_->cfg.seed + 99u);
   // One warm-up batch (allocations), then timed ones.
-  impl_->step(makeBatch(impl_->drawPairs(rng, impl_->cfg.batch_size), impl_->cfg.normalize_radius));
+  impl_->step(makeBatch(impl_->drawPairs(rng, impl_->cfg.batch_size, impl_->cfg.epochs),
+                        impl_->cfg.normalize_radius));
   Timer t;
   for (int i = 0; i < n_batches; ++i)
-    impl_->step(
-        makeBatch(impl_->drawPairs(rng, impl_->cfg.batch_size), impl_->cfg.normalize_radius));
+    impl_->step(makeBatch(impl_->drawPairs(rng, impl_->cfg.batch_size, impl_->cfg.epochs),
+                          impl_->cfg.normalize_radius));
   return n_batches * impl_->cfg.batch_size / t.seconds();
 }
 
@@ -382,7 +400,8 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
         interrupted = true;
         break;
       }
-      const auto l = I.step(makeBatch(I.drawPairs(rng, I.cfg.batch_size), I.cfg.normalize_radius));
+      const auto l =
+          I.step(makeBatch(I.drawPairs(rng, I.cfg.batch_size, epoch), I.cfg.normalize_radius));
       s.loss += l[0];
       s.loss_global += l[1];
       s.loss_neighbor += l[2];

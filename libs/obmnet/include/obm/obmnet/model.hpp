@@ -21,8 +21,8 @@ struct ObmNetOutput {
   /// B overlap estimate in [0, 1] of the last iteration: mean over source and target of the
   /// perplexity of π divided by the number of points (ones without OS).
   torch::Tensor overlap;
-  /// B×N membership of each source point in the sampled overlap region of the last iteration
-  /// (soft in training, 0/1 draws at inference; ones without BP): where α applies.
+  /// B×N membership m_i = 1 − (1 − π_i)^K of each source point in the sampled overlap region
+  /// (last iteration; ones without BP): where α applies in the weighted SVD.
   torch::Tensor membership;
   /// Scalars (summed over iterations, mean over the batch); defined only when compute_loss.
   torch::Tensor loss, loss_global, loss_neighbor, loss_spatial;

@@ -20,7 +20,8 @@ struct RegistrationResult {
   double overlap = 1.0;  ///< the network's overlap estimate in [0, 1]
   /// Inlier weight w_i ∈ (0, 1] of each sampled source point (RIENet's inlier evaluation).
   std::vector<float> inlier_weights;
-  /// Membership of each sampled source point in the sampled overlap region (0/1): where α applies.
+  /// Membership m_i = 1 − (1 − π_i)^K of each sampled source point in the overlap region drawn by
+  /// the sampler: where α applies (ω_i = w_i·(1 + α·m_i)).
   std::vector<float> overlap_membership;
   /// The source points the network saw (input indices), aligned with inlier_weights.
   std::vector<std::size_t> source_indices;

@@ -40,6 +40,10 @@ struct TrainConfig {
   int threads = 2;                ///< intra-op threads (torch::set_num_threads)
   std::uint64_t seed = 1;         ///< seeds weights, pair generation and Gumbel noise
   double max_hours = 0.0;         ///< stop (with a checkpoint) after this wall time; 0 = no limit
+  /// Epochs over which the training pairs go from clean to `protocol` (crop and jitter ramped up
+  /// linearly; see curriculumProtocol). Learning to match from scratch on partial, noisy pairs
+  /// is slow; on identical points it is immediate, and the features carry over.
+  int curriculum_epochs = 0;
 
   static TrainConfig load(const ConfigNode& root);
 };
@@ -65,13 +69,19 @@ struct ValidationScores {
 ///   best.pt         best model on the validation split (a model file for loadModel)
 ///   train_log.csv   one row per epoch
 ///   config.yaml     the configuration actually used
-/// Draws one training pair; called with the trainer's generator (seeded per epoch, so a resumed
-/// run sees the same pairs).
-using PairSampler = std::function<RegistrationPair(std::mt19937_64& rng)>;
+/// Draws one training pair for a (1-based) epoch; called with the trainer's generator (seeded per
+/// epoch, so a resumed run sees the same pairs).
+using PairSampler = std::function<RegistrationPair(std::mt19937_64& rng, int epoch)>;
+
+/// The protocol of epoch `epoch` under a curriculum of `curriculum_epochs` epochs: the crop and the
+/// jitter grow linearly from none (a clean pair) to `target`'s, reached at epoch
+/// `curriculum_epochs` and kept afterwards. 0 epochs = `target` from the start.
+PairProtocol curriculumProtocol(const PairProtocol& target, int epoch, int curriculum_epochs);
 
 /// The sampler of the object-level protocols: a random cloud of `clouds`, made into a pair by
-/// `protocol` (makePair).
-PairSampler objectPairSampler(std::vector<PointCloud> clouds, PairProtocol protocol);
+/// `protocol` (makePair), eased by curriculumProtocol during the first `curriculum_epochs`.
+PairSampler objectPairSampler(std::vector<PointCloud> clouds, PairProtocol protocol,
+                              int curriculum_epochs = 0);
 
 /// `n` validation pairs from `clouds` (cycled) with `protocol`, from a fixed seed.
 std::vector<RegistrationPair> objectValidationPairs(const std::vector<PointCloud>& clouds,
