@@ -270,11 +270,11 @@ LidarSweep LidarSimulator::simulate(const RaycastScene& scene, const PoseAtTime&
               continue;
           }
           float meas = range;
-          if (noisy && sigma > 0.f) meas += sigma * static_cast<float>(rng.normal());
+          if (noisy && sigma > 0.f) meas += sigma * rng.normalFast();
           if (meas < P.min_range || meas > P.max_range) continue;
           float inten = mp.reflectivity * (0.5f + 0.5f * cosi) * 1.8f * std::exp(-range / 40.f);
           if (noisy && P.intensity_noise_sigma > 0.0)
-            inten += static_cast<float>(P.intensity_noise_sigma * rng.normal());
+            inten += static_cast<float>(P.intensity_noise_sigma) * rng.normalFast();
           inten = std::clamp(inten, 0.f, 1.f);
           o.points.push_back(direction(r0 + i, c) * meas);
           o.intensity.push_back(inten);

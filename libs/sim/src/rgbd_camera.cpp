@@ -107,6 +107,14 @@ std::size_t DepthFrame::validCount() const {
 
 RgbdSimulator::RgbdSimulator(RgbdParams params) : params_(std::move(params)) {
   params_.validate();
+  // θ² / (π/2 − θ)² of Nguyen et al.'s eq. 7 sampled over cos θ ∈ [0, 1]; infinite at grazing
+  // incidence, which max_incidence_deg removes before it is used.
+  angle_term_.resize(kAngleCells + 1);
+  for (int k = 0; k <= kAngleCells; ++k) {
+    const double theta = std::acos(static_cast<double>(k) / kAngleCells);
+    const double g = std::max(M_PI_2 - theta, 1e-3);
+    angle_term_[static_cast<std::size_t>(k)] = static_cast<float>(theta * theta / (g * g));
+  }
 }
 
 DepthFrame RgbdSimulator::render(const RaycastScene& scene, const Eigen::Isometry3d& T_world_cam,
@@ -150,8 +158,8 @@ DepthFrame RgbdSimulator::render(const RaycastScene& scene, const Eigen::Isometr
           if (u >= P.width || v >= P.height) continue;
           double uu = u, vv = v;
           if (noisy && P.lateral_sigma_px > 0.0) {
-            uu += P.lateral_sigma_px * rng.normal();
-            vv += P.lateral_sigma_px * rng.normal();
+            uu += P.lateral_sigma_px * rng.normalFast();
+            vv += P.lateral_sigma_px * rng.normalFast();
           }
           // Direction with unit z in the camera frame, so the hit's t is the depth.
           const Eigen::Vector3f dc(static_cast<float>((uu - P.cx) / P.fx),
@@ -210,9 +218,17 @@ DepthFrame RgbdSimulator::render(const RaycastScene& scene, const Eigen::Isometr
         if (!(z > 0.f)) continue;
         if (shadow_valid[i] && shadow.tfar[i] < 0.f) continue;  // projector shadow
         if (noisy) {
-          if (P.dropout_probability > 0.0 && rng.uniform() < P.dropout_probability) continue;
-          const double theta = std::acos(std::min(1.f, cosv[i]));
-          z += static_cast<float>(P.axialSigma(z, theta) * rng.normal());
+          if (P.dropout_probability > 0.0 && rng.uniformf() < P.dropout_probability) continue;
+          // σ(z, θ) with the incidence term from a table over cos θ (no acos per pixel).
+          const float ci = std::min(1.f, std::max(0.f, cosv[i]));
+          const float ft = ci * static_cast<float>(kAngleCells);
+          const int it = std::min(kAngleCells - 1, static_cast<int>(ft));
+          const float g = angle_term_[it] + (ft - it) * (angle_term_[it + 1] - angle_term_[it]);
+          const float dz = z - static_cast<float>(P.axial_sigma_z0);
+          const float sigma = static_cast<float>(P.axial_sigma_a) +
+                              static_cast<float>(P.axial_sigma_b) * dz * dz +
+                              static_cast<float>(P.axial_sigma_angle) * g / std::sqrt(z);
+          z += sigma * rng.normalFast();
         }
         z = static_cast<float>(P.quantize(z));
         if (z < P.min_depth || z > P.max_depth) continue;

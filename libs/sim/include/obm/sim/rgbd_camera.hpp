@@ -86,7 +86,9 @@ class RgbdSimulator {
   PointCloud backProject(const DepthFrame& frame) const;
 
  private:
+  static constexpr int kAngleCells = 1024;
   RgbdParams params_;
+  std::vector<float> angle_term_;  // incidence term of the axial noise over cos θ
 };
 
 }  // namespace obm::sim
