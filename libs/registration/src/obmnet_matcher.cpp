@@ -39,7 +39,7 @@ struct NetworkStage {
   Isometry3d T_target_source = Isometry3d::Identity();  ///< network pose (composed with T_init)
   double alpha = 1.0, overlap = 0.0;
   std::vector<Vector3f> sampled;  ///< the network's source points, source frame
-  std::vector<double> prior;  ///< w_i·(1 + (α − 1)·m_i): α·w_i inside the overlap, w_i out
+  std::vector<double> prior;  ///< w_i·(1 + α·m_i): the network's SVD weights (docs/model.md)
 };
 
 NetworkStage runNetwork(const ObmNetRegistrar& reg, const ObmNetMatcherParams& p,
@@ -76,12 +76,12 @@ NetworkStage runNetwork(const ObmNetRegistrar& reg, const ObmNetMatcherParams& p
     // Indices refer to the cloud given to align(), which has the source's point order.
     s.sampled.push_back(source.points[r.source_indices[i]]);
     const double w = i < r.inlier_weights.size() ? double(r.inlier_weights[i]) : 1.0;
-    // ω_i = α·w_i inside the sampled overlap (m_i = 1), w_i outside (m_i = 0); a soft membership
-    // m_i ∈ [0, 1] interpolates linearly: w_i·(1 + (α − 1)·m_i).
+    // The network's own SVD weights (docs/model.md, step 8): ω_i = w_i·(1 + α·m_i) with m_i the
+    // membership of point i in the sampled overlap region.
     const double m = i < r.overlap_membership.size()
                          ? std::clamp(double(r.overlap_membership[i]), 0.0, 1.0)
                          : 0.0;
-    s.prior.push_back(w * (1.0 + (r.alpha - 1.0) * m));
+    s.prior.push_back(w * (1.0 + r.alpha * m));
   }
   return s;
 }
