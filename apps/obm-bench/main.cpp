@@ -13,6 +13,8 @@
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
 #include "obm/obmnet/registrar.hpp"
+#include "obm/registration/icp.hpp"
+#include "obm/registration/obmnet_matcher.hpp"
 
 using namespace obm;
 
@@ -30,6 +32,46 @@ bench::Method obmnetMethod(const std::string& name, const std::string& model, in
   auto reg = std::make_shared<ObmNetRegistrar>(ObmNetRegistrar::Options{model, 0, threads, 0});
   return {name, [reg](const PointCloud& s, const PointCloud& t) {
             return reg->align(s, t).T_target_source;
+          }};
+}
+
+/// Point-to-plane ICP for unit-sphere objects: 0.1 correspondence gate annealed from 0.5, Huber
+/// kernel at 0.02, up to 60 iterations.
+IcpParams objectIcpParams() {
+  IcpParams p;
+  p.initial_max_correspondence_distance = 0.5;
+  p.max_correspondence_distance = 0.1;
+  p.kernel_scale = 0.02;
+  p.normal_neighbors = 10;
+  p.max_iterations = 60;
+  p.min_correspondences = 20;
+  p.threads = 1;
+  return p;
+}
+
+ConfidenceParams objectConfidenceParams() {
+  ConfidenceParams c;
+  c.inlier_threshold = 0.05;
+  c.min_sigma = 0.001;
+  return c;
+}
+
+bench::Method icpMethod() {
+  auto m = std::make_shared<IcpMatcher>(objectIcpParams(), objectConfidenceParams());
+  return {"icp", [m](const PointCloud& s, const PointCloud& t) {
+            return m->match(s, t, Isometry3d::Identity()).T_target_source;
+          }};
+}
+
+bench::Method obmnetIcpMethod(const std::string& model, int threads) {
+  ObmNetMatcherParams p;
+  p.model_path = model;
+  p.threads = threads;
+  p.pre_align = false;
+  p.keep_init_if_better = false;
+  auto m = std::make_shared<ObmNetIcpMatcher>(p, objectIcpParams(), objectConfidenceParams());
+  return {"obmnet+icp", [m](const PointCloud& s, const PointCloud& t) {
+            return m->match(s, t, Isometry3d::Identity()).T_target_source;
           }};
 }
 
@@ -115,6 +157,8 @@ int main(int argc, char** argv) {
       for (const auto& m : splitList(ablation)) methods.push_back(obmnetMethod(m, m, threads));
     } else {
       methods.push_back(obmnetMethod("obmnet", model, threads));
+      methods.push_back(obmnetIcpMethod(model, threads));
+      methods.push_back(icpMethod());
       for (auto& m : bench::open3dMethods(bench::Open3dParams{})) methods.push_back(std::move(m));
     }
     if (!methods_arg.empty()) {
