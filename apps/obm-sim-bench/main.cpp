@@ -3,7 +3,7 @@
 #include <sys/resource.h>
 
 #include <CLI/CLI.hpp>
-#include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -28,6 +28,12 @@ double peakRssMiB() {
   return static_cast<double>(ru.ru_maxrss) / 1024.0;  // Linux: KiB
 }
 
+double processCpuSeconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
 std::string loadAverage() {
   std::ifstream is("/proc/loadavg");
   std::string a;
@@ -41,8 +47,26 @@ std::string fmt(double v, int prec) {
   return os.str();
 }
 
+// Wall and process-CPU time of a block of `items` work items.
+struct Span {
+  double wall = 0, cpu = 0;
+  int items = 0;
+  double wallRate() const { return items / wall; }
+  /// Items per second if `cores` cores were free for it (CPU time is what the work costs,
+  /// whatever else runs on the machine).
+  double freeRate(int cores) const { return cores * items / cpu; }
+};
+
+template <typename F>
+Span measure(int items, F&& f) {
+  obm::Timer t;
+  const double c0 = processCpuSeconds();
+  for (int k = 0; k < items; ++k) f(k);
+  return {t.seconds(), processCpuSeconds() - c0, items};
+}
+
 struct Row {
-  std::string what, value, target, ok;
+  std::string what, wall, cpu, free, target, ok;
 };
 
 }  // namespace
@@ -52,7 +76,8 @@ int main(int argc, char** argv) {
       "obm-sim-bench: measures the simulator on its presets — HDL-64E sweeps per second and rays "
       "per second on kitti_like_urban, RGB-D 640x480 frames per second on indoor_loop, scene "
       "build times, peak memory, and optionally whole obm-sim runs with writing — and prints a "
-      "Markdown table."};
+      "Markdown table with wall-clock rates, CPU time per item, and the rate the CPU time implies "
+      "on the machine's cores when nothing else runs."};
   int sweeps = 100, frames = 100, threads = 0, e2e_frames = 0;
   std::string tmp_dir = std::filesystem::temp_directory_path().string();
   app.add_option("--sweeps", sweeps, "LiDAR sweeps to time [default: 100]");
@@ -67,8 +92,20 @@ int main(int argc, char** argv) {
   try {
     obm::setLogLevel(obm::LogLevel::Warn);
     using namespace obm::sim;
+    const int hw = std::max(1u, std::thread::hardware_concurrency());
+    const int cores = threads > 0 ? std::min(threads, hw) : hw;
     std::vector<Row> rows;
-    const unsigned hw = std::thread::hardware_concurrency();
+    auto rate = [&](const std::string& what, const Span& s, const std::string& unit,
+                    double target) {
+      const double free = s.freeRate(cores);
+      rows.push_back({what, fmt(s.wallRate(), 1) + unit, fmt(1e3 * s.cpu / s.items, 1) + " ms",
+                      fmt(free, 1) + unit, target > 0 ? ">= " + fmt(target, 0) + unit : "",
+                      target > 0 ? (free >= target ? "yes" : "NO") : ""});
+    };
+    auto info = [&](const std::string& what, const std::string& value,
+                    const std::string& target = "", const std::string& ok = "") {
+      rows.push_back({what, value, "", "", target, ok});
+    };
     const std::string load_before = loadAverage();
 
     // --- LiDAR on the urban preset --------------------------------------------------------
@@ -88,36 +125,34 @@ int main(int argc, char** argv) {
     lp.threads = threads;
     const LidarSimulator lidar(lp);
     std::size_t points = 0;
+    auto pose_of = [&](int k) { return (static_cast<std::size_t>(k) * 7) % drive.size(); };
     lidar.simulate(city_rc, drive.poses[0], 0.0, 1);  // warm-up
-    t.reset();
-    for (int k = 0; k < sweeps; ++k) {
-      const std::size_t i = (static_cast<std::size_t>(k) * 7) % drive.size();
-      points += lidar.simulate(city_rc, drive.poses[i], drive.stamps[i], 100 + k).cloud.size();
-    }
-    const double t_lidar = t.seconds();
-    const double sweeps_s = sweeps / t_lidar;
-    const double rays_s = sweeps_s * static_cast<double>(lp.raysPerSweep());
+    const Span ls = measure(sweeps, [&](int k) {
+      points += lidar.simulate(city_rc, drive.poses[pose_of(k)], drive.stamps[pose_of(k)], 100 + k)
+                    .cloud.size();
+    });
     lp.motion_distortion = true;
     const LidarSimulator lidar_md(lp);
     const PoseAtTime pose = [&](double s) { return drive.interpolate(s); };
-    t.reset();
-    for (int k = 0; k < sweeps / 4 + 1; ++k) {
-      const std::size_t i = (static_cast<std::size_t>(k) * 7) % drive.size();
-      lidar_md.simulate(city_rc, pose, drive.stamps[i], 100 + k);
-    }
-    const double md_sweeps_s = (sweeps / 4 + 1) / t.seconds();
+    const Span lsd = measure(std::max(1, sweeps / 4), [&](int k) {
+      lidar_md.simulate(city_rc, pose, drive.stamps[pose_of(k)], 100 + k);
+    });
     const double rss_urban = peakRssMiB();
-    rows.push_back({"urban scene (kitti_like_urban): generation", fmt(t_city, 2) + " s", "", ""});
-    rows.push_back({"urban scene: triangles / Embree BVH build",
-                    std::to_string(city.mesh.numFaces()) + " / " + fmt(t_bvh, 2) + " s", "", ""});
-    rows.push_back({"HDL-64E rays per sweep", std::to_string(lp.raysPerSweep()), "~130k", ""});
-    rows.push_back({"HDL-64E points per sweep (mean)", fmt(double(points) / sweeps, 0), "", ""});
-    rows.push_back({"HDL-64E sweeps/s", fmt(sweeps_s, 1), ">= 10", sweeps_s >= 10 ? "yes" : "NO"});
-    rows.push_back({"HDL-64E rays/s", fmt(rays_s / 1e6, 2) + " M", ">= 1.3 M",
-                    rays_s >= 1.3e6 ? "yes" : "NO"});
-    rows.push_back({"HDL-64E sweeps/s with motion distortion", fmt(md_sweeps_s, 1), "", ""});
-    rows.push_back({"peak RSS after the urban scene + sweeps", fmt(rss_urban, 0) + " MiB",
-                    "<= 2048 MiB", rss_urban <= 2048 ? "yes" : "NO"});
+    info("urban scene (kitti_like_urban): triangles", std::to_string(city.mesh.numFaces()));
+    info("urban scene: generation / Embree BVH build",
+         fmt(t_city, 2) + " s / " + fmt(t_bvh, 2) + " s");
+    info("HDL-64E rays per sweep / mean points per sweep",
+         std::to_string(lp.raysPerSweep()) + " / " + fmt(double(points) / sweeps, 0), "~130k rays");
+    rate("HDL-64E sweeps/s", ls, "", 10);
+    Span lr = ls;
+    lr.items = static_cast<int>(ls.items * lp.raysPerSweep() / 1000);
+    rows.push_back({"HDL-64E rays/s", fmt(lr.wallRate() / 1e3, 2) + " M",
+                    fmt(1e6 * ls.cpu / (double(ls.items) * lp.raysPerSweep()), 3) + " µs/ray",
+                    fmt(lr.freeRate(cores) / 1e3, 2) + " M", ">= 1.3 M",
+                    lr.freeRate(cores) >= 1300 ? "yes" : "NO"});
+    rate("HDL-64E sweeps/s with motion distortion", lsd, "", 0);
+    info("peak RSS after the urban scene + sweeps", fmt(rss_urban, 0) + " MiB", "<= 2048 MiB",
+         rss_urban <= 2048 ? "yes" : "NO");
 
     // --- RGB-D on the indoor preset -------------------------------------------------------
     SimConfig indoor = SimConfig::loadFile(findPreset("indoor_loop", argv[0]));
@@ -128,43 +163,37 @@ int main(int argc, char** argv) {
     const RaycastScene floor_rc(floor.mesh, ro);
     const double t_floor = t.seconds();
     const Trajectory walk = generateWalk(indoor.scene.indoor, floor, indoor.trajectory.walk);
+    auto view = [&](int k) { return (static_cast<std::size_t>(k) * 13) % walk.size(); };
     RgbdParams cp = indoor.sensor.rgbd;
     cp.threads = threads;
+    std::size_t valid = 0;
     const RgbdSimulator cam(cp);
     cam.render(floor_rc, walk.poses[0], 0.0, 1);  // warm-up
-    std::size_t valid = 0;
-    t.reset();
-    for (int k = 0; k < frames; ++k) {
-      const std::size_t i = (static_cast<std::size_t>(k) * 13) % walk.size();
-      valid += cam.render(floor_rc, walk.poses[i], walk.stamps[i], 200 + k).validCount();
-    }
-    const double t_rgbd = t.seconds();
-    const double fps = frames / t_rgbd;
-    rows.push_back({"indoor scene (indoor_loop): triangles / generation + BVH",
-                    std::to_string(floor.mesh.numFaces()) + " / " + fmt(t_floor, 2) + " s", "",
-                    ""});
-    rows.push_back({"RGB-D 640x480 frames/s (noise, shadows, colour)", fmt(fps, 1), ">= 20",
-                    fps >= 20 ? "yes" : "NO"});
-    rows.push_back({"RGB-D valid pixels per frame (mean)", fmt(double(valid) / frames, 0), "", ""});
+    const Span rs = measure(frames, [&](int k) {
+      valid +=
+          cam.render(floor_rc, walk.poses[view(k)], walk.stamps[view(k)], 200 + k).validCount();
+    });
+    info("indoor scene (indoor_loop): triangles / generation + BVH",
+         std::to_string(floor.mesh.numFaces()) + " / " + fmt(t_floor, 2) + " s");
+    rate("RGB-D 640x480 frames/s (noise, projector shadows, colour)", rs, "", 20);
+    info("RGB-D valid depth pixels per frame (mean)", fmt(double(valid) / frames, 0));
     cp.projector_shadow = false;
     cp.color = false;
     const RgbdSimulator cam2(cp);
-    t.reset();
-    for (int k = 0; k < frames; ++k) {
-      const std::size_t i = (static_cast<std::size_t>(k) * 13) % walk.size();
-      cam2.render(floor_rc, walk.poses[i], walk.stamps[i], 200 + k);
-    }
-    rows.push_back({"RGB-D frames/s without projector shadow and colour",
-                    fmt(frames / t.seconds(), 1), "", ""});
+    rate("RGB-D frames/s without shadows and colour",
+         measure(frames,
+                 [&](int k) {
+                   cam2.render(floor_rc, walk.poses[view(k)], walk.stamps[view(k)], 200 + k);
+                 }),
+         "", 0);
     cp.noise = false;
     const RgbdSimulator cam3(cp);
-    t.reset();
-    for (int k = 0; k < frames; ++k) {
-      const std::size_t i = (static_cast<std::size_t>(k) * 13) % walk.size();
-      cam3.render(floor_rc, walk.poses[i], walk.stamps[i], 200 + k);
-    }
-    rows.push_back({"RGB-D frames/s, also without noise (ray casting only)",
-                    fmt(frames / t.seconds(), 1), "", ""});
+    rate("RGB-D frames/s, also without noise (ray casting only)",
+         measure(frames,
+                 [&](int k) {
+                   cam3.render(floor_rc, walk.poses[view(k)], walk.stamps[view(k)], 200 + k);
+                 }),
+         "", 0);
 
     // --- whole runs -----------------------------------------------------------------------
     if (e2e_frames > 0) {
@@ -179,22 +208,26 @@ int main(int argc, char** argv) {
         SimOptions o;
         o.out_dir = out;
         o.progress = false;
-        const SimSummary s = sim.run(o);
+        SimSummary s;
+        const Span e = measure(1, [&](int) { s = sim.run(o); });
         std::filesystem::remove_all(out);
-        rows.push_back({std::string("obm-sim --preset ") + preset + " --frames " +
-                            std::to_string(e2e_frames) + ": frames/s incl. writing",
-                        fmt(s.frames / s.seconds, 1), "", ""});
+        Span per_frame = e;
+        per_frame.items = static_cast<int>(s.frames);
+        rate(std::string("obm-sim --preset ") + preset + " --frames " + std::to_string(e2e_frames) +
+                 ": frames/s incl. scene, writing",
+             per_frame, "", 0);
       }
     }
 
-    std::cout << "| measurement | value | target | met |\n|---|---|---|---|\n";
+    std::cout << "| measurement | wall clock | CPU per item | on " << cores
+              << " free cores | target | met |\n|---|---|---|---|---|---|\n";
     for (const auto& r : rows)
-      std::cout << "| " << r.what << " | " << r.value << " | " << r.target << " | " << r.ok
-                << " |\n";
-    std::cout << "\nMachine: " << hw << " hardware threads, ray-casting threads "
-              << (threads == 0 ? std::to_string(hw) + " (all)" : std::to_string(threads))
-              << ", load average before / after: " << load_before << " / " << loadAverage()
-              << "; peak RSS of the whole benchmark " << fmt(peakRssMiB(), 0) << " MiB.\n";
+      std::cout << "| " << r.what << " | " << r.wall << " | " << r.cpu << " | " << r.free << " | "
+                << r.target << " | " << r.ok << " |\n";
+    std::cout << "\nMachine: " << hw << " hardware threads, ray casting on " << cores
+              << " thread(s); load average before / after: " << load_before << " / "
+              << loadAverage() << "; peak RSS of the whole benchmark " << fmt(peakRssMiB(), 0)
+              << " MiB. \"On free cores\" = cores × items / process CPU time.\n";
     return 0;
   } catch (const std::exception& e) {
     std::cerr << "obm-sim-bench: error: " << e.what() << "\n";
