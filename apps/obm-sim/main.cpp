@@ -29,15 +29,18 @@ int main(int argc, char** argv) {
   app.add_option("-c,--config", cl.config_file, "YAML configuration file instead of a preset");
   app.add_option("-o,--out", out, "output folder (must not exist or be empty, see --overwrite)");
   app.add_option("-n,--frames", cl.frames,
-                 "simulate only the first N frames [default: the config's, 0 = whole trajectory]");
+                 "simulate only the first N frames [default: the config's, 0 = whole trajectory]")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("-s,--seed", cl.seed,
-                 "master seed of the scene, trajectory and noise [default: the config's]");
+                 "master seed of the scene, trajectory and noise [default: the config's]")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("-t,--trajectory", cl.trajectory,
                  "pose file to drive the sensor: KITTI (12 numbers per line, camera frame, 0.1 s "
                  "apart) or TUM (t tx ty tz qx qy qz qw), detected from the file [default: the "
                  "config's; the kitti00_gt and indoor_tum_* presets read "
                  "$OBM_SHARED_DATA/...]");
-  app.add_option("--threads", cl.threads, "ray-casting threads, 0 = all cores [default: 0]");
+  app.add_option("--threads", cl.threads, "ray-casting threads, 0 = all cores [default: 0]")
+      ->check(CLI::NonNegativeNumber);
   app.add_flag("--overwrite", overwrite, "replace a non-empty output folder");
   app.add_flag("-q,--quiet", quiet, "no progress bar");
   app.add_flag("--preview", preview,
