@@ -27,7 +27,7 @@ struct Options {
   InitMethod init = InitMethod::Chordal;  ///< initial guess before the first optimisation
   int max_iterations = 100;               ///< Levenberg–Marquardt iterations (upper bound)
   int num_threads = 0;                    ///< Jacobian evaluation threads; 0 = all cores
-  double function_tolerance = 1e-10;      ///< stop when |Δcost|/cost < this [-]
+  double function_tolerance = 1e-6;       ///< stop when |Δcost|/cost < this [-]
   double gradient_tolerance = 1e-12;      ///< stop when max|gradient| (projected) < this
   double parameter_tolerance = 1e-10;     ///< stop when |Δx| < this·(|x| + this)
   /// Initial LM trust-region radius (1/μ). Large = near Gauss–Newton first steps, which converge
