@@ -28,7 +28,7 @@ int main(int argc, char** argv) {
       "checkpoint keeps the last whole epoch and --resume continues from it."};
   std::string config_path, out_dir, data_dir;
   bool resume = false;
-  int threads = 0, epochs = 0, measure = 0;
+  int threads = 0, epochs = 0, measure = 0, overfit = 0, overfit_epoch = 0, batch = 0;
   double max_hours = -1.0;
   std::string log_level = "info";
   app.add_option("-c,--config", config_path, "training config (YAML: model, train, data)")
@@ -41,6 +41,13 @@ int main(int argc, char** argv) {
   app.add_option("--max-hours", max_hours, "override train.max_hours (0 = no limit)");
   app.add_option("--data", data_dir, "override data.dir (mesh folder)");
   app.add_option("--measure", measure, "only measure training throughput on N batches and exit");
+  app.add_option(
+      "--overfit", overfit,
+      "sanity check: N steps on one fixed batch of a fresh model, printing the rotation error");
+  app.add_option(
+      "--overfit-epoch", overfit_epoch,
+      "curriculum level of the --overfit batch (default: the last epoch = the full protocol)");
+  app.add_option("--batch-size", batch, "override train.batch_size");
   app.add_option("--log-level", log_level, "debug|info|warn|error")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
@@ -51,6 +58,7 @@ int main(int argc, char** argv) {
     if (threads > 0) cfg.threads = threads;
     if (epochs > 0) cfg.epochs = epochs;
     if (max_hours >= 0) cfg.max_hours = max_hours;
+    if (batch > 0) cfg.batch_size = batch;
     auto src = obm::apps::ObjectSourceConfig::load(root.child("data"));
     if (!data_dir.empty()) src.dir = data_dir;
     torch::set_num_threads(cfg.threads);
@@ -60,6 +68,13 @@ int main(int argc, char** argv) {
                  "[obm-train] objects: %zu train, %zu val, %zu test (test never used here)\n",
                  set.train.size(), set.val.size(), set.test.size());
     obm::obmnet::Trainer trainer(cfg, std::move(set.train), std::move(set.val), out_dir);
+    if (overfit > 0) {
+      const auto rows =
+          trainer.overfitOneBatch(overfit, 5, overfit_epoch > 0 ? overfit_epoch : cfg.epochs);
+      std::printf("step  loss       rotation error [deg] (train mode; last row: eval mode)\n");
+      for (const auto& r : rows) std::printf("%4.0f  %-9.5f  %.6g\n", r[0], r[1], r[2]);
+      return 0;
+    }
     if (measure > 0) {
       std::printf("training throughput: %.2f pairs/s (batch %d, %d threads)\n",
                   trainer.measureThroughput(measure), cfg.batch_size, cfg.threads);

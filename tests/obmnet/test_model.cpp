@@ -249,3 +249,12 @@ TEST(Losses, SpatialConsistencyIsMinusLogOfRowMax) {
   const double expected = -(std::log(0.7) + std::log(0.8)) / 2.0;
   EXPECT_NEAR(spatialConsistencyLoss(P.log(), kp).item<double>(), expected, 1e-12);
 }
+
+TEST(WeightedSvd, VanishedWeightsFallBackToUniform) {
+  torch::manual_seed(12);
+  const auto R = randomRotation(1);
+  const auto x = torch::randn({1, 3, 20}, torch::kFloat64);
+  const auto y = torch::bmm(R, x);
+  const auto T = weightedProcrustes(x, y, torch::zeros({1, 20}, torch::kFloat64));
+  EXPECT_TRUE(torch::allclose(T.R, R, 1e-9, 1e-9));
+}

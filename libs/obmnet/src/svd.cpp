@@ -16,7 +16,11 @@ RigidTransforms weightedProcrustes(const torch::Tensor& src, const torch::Tensor
   const auto x = src.to(torch::kFloat64);
   const auto y = tgt.to(torch::kFloat64);
   auto w = weights.to(torch::kFloat64).clamp_min(0.0);
-  w = w / (w.sum(1, /*keepdim=*/true) + eps);
+  // Rows whose weights all vanished fall back to uniform weights (a plain Procrustes) instead of a
+  // zero H, whose SVD would silently return the identity.
+  const auto total = w.sum(1, /*keepdim=*/true);
+  w = torch::where(total > eps, w, torch::ones_like(w));
+  w = w / w.sum(1, /*keepdim=*/true);
   const auto wu = w.unsqueeze(1);      // B×1×N
   const auto x_bar = (x * wu).sum(2);  // B×3 weighted centroids
   const auto y_bar = (y * wu).sum(2);

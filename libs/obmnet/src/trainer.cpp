@@ -327,6 +327,34 @@ ValidationScores Trainer::validate() {
   return impl_->validate();
 }
 
+std::vector<std::array<double, 3>> Trainer::overfitOneBatch(int steps, int every, int epoch) {
+  Impl& I = *impl_;
+  std::mt19937_64 rng(I.cfg.seed + 4242u);
+  const Batch b = makeBatch(I.drawPairs(rng, I.cfg.batch_size, epoch), I.cfg.normalize_radius);
+  auto meanError = [&](const ObmNetOutput& o) {
+    double e = 0.0;
+    for (std::size_t j = 0; j < b.pairs.size(); ++j) {
+      const Isometry3d T = b.norms[j].denormalize(toIsometry(o.R, o.t, static_cast<int64_t>(j)));
+      e += rotationAngle(b.pairs[j].T_target_source.linear().transpose() * T.linear()) * kRadToDeg;
+    }
+    return e / static_cast<double>(b.pairs.size());
+  };
+  std::vector<std::array<double, 3>> rows;
+  for (int s = 0; s < steps; ++s) {
+    I.model->train();
+    I.optim->zero_grad();
+    const auto o = I.model->forward(b.src, b.tgt, true);
+    if (s % every == 0 || s + 1 == steps)
+      rows.push_back({double(s), o.loss.item<double>(), meanError(o)});
+    o.loss.backward();
+    I.optim->step();
+  }
+  torch::NoGradGuard ng;
+  I.model->eval();
+  rows.push_back({double(steps), 0.0, meanError(I.model->forward(b.src, b.tgt, false))});
+  return rows;
+}
+
 double Trainer::measureThroughput(int n_batches) {
   std::mt19937_64 rng(impl_->cfg.seed + 99u);
   // One warm-up batch (allocations), then timed ones.

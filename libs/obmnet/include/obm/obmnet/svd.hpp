@@ -16,8 +16,8 @@ struct RigidTransforms {
 /// column i of src corresponds to column i of tgt) with non-negative `weights` B×N (normalised
 /// here, so any positive scale gives the same result). Weighted centroids x̄, ȳ;
 /// H = Σ w_i (x_i − x̄)(y_i − ȳ)ᵀ = U S Vᵀ; R = V diag(1, 1, det(V Uᵀ)) Uᵀ (a proper rotation,
-/// reflections excluded); t = ȳ − R x̄. Differentiable through torch::linalg_svd. `eps` guards
-/// the weight normalisation when all weights vanish.
+/// reflections excluded); t = ȳ − R x̄. Differentiable through torch::linalg_svd. A row whose
+/// weights sum to at most `eps` (all vanished) is solved with uniform weights.
 RigidTransforms weightedProcrustes(const torch::Tensor& src, const torch::Tensor& tgt,
                                    const torch::Tensor& weights, double eps = 1e-12);
 

@@ -3,6 +3,7 @@
 /// Unsupervised training of OBMNet (RECIPE.md: Adam, step schedule, losses L_g + L_n + L_s).
 /// Ground truth is never used to train; it only scores the validation split, on which the best
 /// checkpoint is chosen (never on the test split). LibTorch stays out of this header.
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -110,6 +111,12 @@ class Trainer {
 
   /// Scores the current model on the validation pairs.
   ValidationScores validate();
+
+  /// A sanity check of the learning signal: `steps` optimisation steps on ONE fixed batch of the
+  /// training protocol at `epoch`'s curriculum level (a fresh model, nothing saved). Returns, every
+  /// `every` steps, {step, loss, mean rotation error in train mode [deg]}, then a last row
+  /// {steps, 0, eval-mode error}. A model that cannot fit one batch has a broken gradient path.
+  std::vector<std::array<double, 3>> overfitOneBatch(int steps, int every, int epoch);
 
   /// Pairs per second of training (forward + backward + step) measured on `n_batches` batches
   /// of the training protocol, without touching the checkpoint. For planning runs.
