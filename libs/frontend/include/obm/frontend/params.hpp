@@ -1,0 +1,178 @@
+#pragma once
+/// \file params.hpp
+/// Parameters of the SLAM front-end (docs/obm-map.md, "Configuration"): plain structs with
+/// in-class defaults (tuned for a 10 Hz 64-beam LiDAR in metres), each loaded from YAML in exactly
+/// one place, its `load`. Unknown keys and out-of-range values throw ConfigError naming the file
+/// and the key. Angles are degrees in YAML (`*_deg`) and radians here.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "obm/backend/optimizer.hpp"
+#include "obm/backend/pose_graph.hpp"
+#include "obm/core/se3.hpp"
+#include "obm/registration/factory.hpp"
+#include "obm/registration/params.hpp"
+
+namespace obm {
+class ConfigNode;
+}
+
+namespace obm::frontend {
+
+/// Preprocessing of every sweep before it is registered (YAML `preprocess:`).
+struct PreprocessParams {
+  double min_range = 2.0;    ///< [m] nearer points are dropped (returns from the vehicle)
+  double max_range = 100.0;  ///< [m] farther points are dropped; <= 0 = no upper bound
+  /// [m] voxel grid of the scan that is registered (one centroid per voxel); 0 = off.
+  double voxel = 0.5;
+  /// Random N-point sample after the voxel grid (seeded, reproducible); 0 = keep every point.
+  std::size_t max_points = 0;
+  std::uint64_t seed = 0;  ///< seed of the N-point sampling
+
+  static PreprocessParams load(const ConfigNode& node);
+  void validate() const;
+};
+
+/// When a frame becomes a keyframe (YAML `keyframes:`): a pose-graph node, a local-map member.
+struct KeyframeParams {
+  double distance = 4.0;               ///< [m] travelled since the last keyframe
+  double rotation = 10.0 * kDegToRad;  ///< [rad] rotated since the last keyframe (YAML `_deg`)
+  std::size_t max_frames = 0;          ///< at least every N tracked frames; 0 = no limit
+
+  static KeyframeParams load(const ConfigNode& node);
+  void validate() const;
+};
+
+/// The local map every frame is registered against (YAML `local_map:`): the clouds of the most
+/// recent keyframes at their current pose estimates, merged on a voxel grid in the world frame.
+struct LocalMapParams {
+  std::size_t keyframes = 15;  ///< recent keyframes merged into the local map
+  /// [m] voxel grid of each keyframe's stored cloud and of the merged map (one centroid per voxel).
+  double voxel = 0.3;
+  double radius = 100.0;  ///< [m] map points farther than this from the newest keyframe are dropped
+
+  static LocalMapParams load(const ConfigNode& node);
+  void validate() const;
+};
+
+/// Frame-to-local-map tracking and what happens when it fails (YAML `tracking:`).
+struct TrackingParams {
+  IcpParams icp;                ///< the scan-to-local-map point-to-plane ICP (YAML `icp:`)
+  ConfidenceParams confidence;  ///< its confidence model (YAML `confidence:`)
+  /// A match is accepted when its status is ok / not_converged / degenerate, its quality is at
+  /// least this, and it corrects the constant-velocity guess by at most the bounds below. [0, 1]
+  double min_quality = 0.3;
+  double max_correction = 1.0;                     ///< [m] |translation of guess⁻¹·estimate|
+  double max_correction_rotation = 5 * kDegToRad;  ///< [rad] rotation of guess⁻¹·estimate
+  /// A match is also rejected when its inlier ratio falls below this fraction of the median
+  /// inlier ratio of the last 10 tracked frames: a wrong local minimum still pairs the ground and
+  /// the facades but loses the rest, which an absolute threshold misses in a street. [0, 1]
+  double relative_inlier_ratio = 0.7;
+  /// [m] recovery (after a rejected match): ICP from the same guess with the correspondence gate
+  /// annealed from this value down to the tracking gate. 0 = no recovery attempt.
+  double recovery_gate = 4.0;
+  double recovery_max_correction = 6.0;  ///< [m] largest correction a recovery may make
+  /// Minimum quality of a recovered match (stricter than min_quality: the guess was off). [0, 1]
+  double recovery_min_quality = 0.4;
+  /// ... and fraction of the recent median inlier ratio it must reach (a correct recovery
+  /// registers against the same local map as the frames before, so it fits as well). [0, 1]
+  double recovery_relative_inlier_ratio = 0.8;
+  /// Recovery starts from the guess and from the guess turned by ±k·step about the axis of the
+  /// last motion (the vertical for a car), k = 1 … hypotheses; the best accepted match wins.
+  double recovery_rotation_step = 10.0 * kDegToRad;  ///< [rad] (YAML `_deg`)
+  int recovery_rotation_hypotheses = 2;              ///< k of each sign (0 = the guess only)
+  /// After this many bridged frames in a row the local map is restarted from the current frame
+  /// (a keyframe joined to the previous one by a weak bridge edge). >= 1.
+  std::size_t max_bridge_frames = 10;
+  /// Multiplies the information Ω = H/σ² of the match before the floor below. > 0
+  double information_scale = 1.0;
+  /// Covariance floor of odometry edges: Ω_edge = (Ω⁻¹ + diag(σ_t² I, σ_r² I))⁻¹, computed as
+  /// Ω (I + Σ_floor Ω)⁻¹ so a rank-deficient Ω (degenerate match) stays valid. It models what
+  /// H/σ² leaves out (correlated residuals, voxelisation), which makes Ω of dense scans
+  /// over-confident by orders of magnitude. >= 0
+  double floor_sigma_translation = 0.01;           ///< [m]
+  double floor_sigma_rotation = 0.02 * kDegToRad;  ///< [rad] (YAML `_deg`)
+  /// Standard deviations of a bridge edge (constant-velocity motion instead of a match).
+  double bridge_sigma_translation = 1.0;           ///< [m]
+  double bridge_sigma_rotation = 5.0 * kDegToRad;  ///< [rad] (YAML `_deg`)
+  /// Scale the constant-velocity guess by the time between frames (time stamps), so dropped
+  /// frames are bridged correctly; false = one frame, one velocity step.
+  bool use_timestamps = true;
+
+  static TrackingParams load(const ConfigNode& node);
+  void validate() const;
+};
+
+/// Scan-context-like place descriptor (YAML `loop_closure.descriptor:`): the maximum height of the
+/// points in each (ring, sector) polar bin around the sensor (Kim & Kim, "Scan Context", IROS
+/// 2018), compared under all sector shifts.
+struct DescriptorParams {
+  int rings = 20;              ///< radial bins
+  int sectors = 60;            ///< azimuthal bins
+  double max_range = 80.0;     ///< [m] radius covered by the rings
+  double height_offset = 2.0;  ///< [m] added to z so that the ground is ~0 and heights positive
+
+  static DescriptorParams load(const ConfigNode& node);
+  void validate() const;
+};
+
+/// Loop closure (YAML `loop_closure:`): candidates near the current keyframe in the current
+/// estimate but far back along the trajectory, verified by the scan matcher.
+struct LoopClosureParams {
+  bool enabled = true;
+  double min_travel = 60.0;     ///< [m] a candidate is at least this far back along the trajectory
+  double search_radius = 12.0;  ///< [m] base radius of the proximity search
+  /// [m/m] the radius grows with the distance travelled since the candidate (drift allowance)
+  double search_radius_per_m = 0.01;
+  double max_search_radius = 30.0;  ///< [m] upper bound of the radius
+  std::size_t check_every = 2;      ///< search at every N-th keyframe (>= 1)
+  std::size_t max_candidates = 2;   ///< candidates verified per search (nearest first)
+  /// After an accepted loop, the next search waits this many keyframes (0 = as check_every).
+  std::size_t cooldown = 5;
+  int submap_keyframes = 3;    ///< the candidate ± this many keyframes form the target submap
+  bool use_descriptor = true;  ///< reject candidates whose descriptor distance is too large
+  double max_descriptor_distance = 0.35;  ///< [0, 1] cosine distance of the descriptors
+  double min_quality = 0.5;               ///< verified match: quality at least this [0, 1]
+  double min_inlier_ratio = 0.4;          ///< verified match: inlier ratio at least this [0, 1]
+  /// [m] the verified pose may differ from the current estimate by at most this (more is an
+  /// implausible correction for the drift since the candidate). 0 = the search radius.
+  double max_correction = 0.0;
+  double information_scale = 1.0;  ///< multiplies the loop edge's information before the floor
+  /// Covariance floor of loop edges (as TrackingParams::floor_sigma_*).
+  double floor_sigma_translation = 0.02;           ///< [m]
+  double floor_sigma_rotation = 0.05 * kDegToRad;  ///< [rad] (YAML `_deg`)
+  /// Robust loss of loop edges in the pose graph ("none", "huber:δ", "cauchy:c", "dcs:Φ").
+  backend::EdgeLoss loss{backend::LossKind::Dcs, 10.0};
+  DescriptorParams descriptor;
+
+  static LoopClosureParams load(const ConfigNode& node);
+  void validate() const;
+};
+
+/// Everything the front-end needs (the root of the YAML minus the app's own sections).
+struct FrontendParams {
+  PreprocessParams preprocess;
+  KeyframeParams keyframes;
+  LocalMapParams local_map;
+  TrackingParams tracking;
+  LoopClosureParams loop_closure;
+  /// The scan matcher of loop-closure verification and recovery (YAML `matcher:`, the keys of
+  /// obm::ScanMatcherConfig plus `fallback`).
+  ScanMatcherConfig matcher;
+  /// Matcher type used instead when `matcher.type` is an OBMNet type and its model file does not
+  /// exist ("" = no fallback: a missing model is an error).
+  std::string matcher_fallback;
+  backend::Options optimizer;  ///< pose-graph optimiser (YAML `optimizer:`, see config/graph.yaml)
+
+  /// Reads the sections `preprocess`, `keyframes`, `local_map`, `tracking`, `loop_closure`,
+  /// `matcher`, `optimizer` of `node` (all optional) and ignores none: call checkKeys on the root
+  /// for the sections the caller adds.
+  static FrontendParams load(const ConfigNode& node);
+  /// The section names load() reads.
+  static std::vector<std::string> sections();
+  void validate() const;
+};
+
+}  // namespace obm::frontend

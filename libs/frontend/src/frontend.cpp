@@ -1,0 +1,703 @@
+#include "obm/frontend/frontend.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <filesystem>
+#include <random>
+
+#include "obm/backend/optimizer.hpp"
+#include "obm/core/cloud_ops.hpp"
+#include "obm/core/errors.hpp"
+#include "obm/core/log.hpp"
+#include "obm/frontend/keyframe_selector.hpp"
+#include "obm/frontend/motion_model.hpp"
+#include "obm/registration/icp.hpp"
+
+namespace obm::frontend {
+
+namespace {
+
+constexpr const char* kLog = "frontend";
+
+bool isObmNetType(const std::string& type) {
+  return type == "obmnet" || type == "obmnet+icp";
+}
+
+/// Ω_edge = (Ω⁻¹ + Σ_floor)⁻¹ = Ω (I + Σ_floor Ω)⁻¹ (valid for a singular Ω), symmetrised, with
+/// eigenvalues clamped to >= 1 (σ <= 1 m or 1 rad along any direction) so the graph stays
+/// solvable, then converted to g2o's (t, vec q) parametrisation.
+Matrix6d edgeInformation(const Matrix6d& omega_theta, double scale, double sigma_t,
+                         double sigma_r) {
+  Matrix6d O = scale * 0.5 * (omega_theta + omega_theta.transpose());
+  if (!O.allFinite()) O.setZero();
+  Vector6d floor_var;
+  floor_var << sigma_t * sigma_t, sigma_t * sigma_t, sigma_t * sigma_t, sigma_r * sigma_r,
+      sigma_r * sigma_r, sigma_r * sigma_r;
+  const Matrix6d S = floor_var.asDiagonal();
+  Matrix6d F = O * (Matrix6d::Identity() + S * O).inverse();
+  F = 0.5 * (F + F.transpose());
+  if (!F.allFinite()) F = O;
+  Eigen::SelfAdjointEigenSolver<Matrix6d> es(F);
+  Vector6d ev = es.eigenvalues().cwiseMax(1.0);
+  F = es.eigenvectors() * ev.asDiagonal() * es.eigenvectors().transpose();
+  F = 0.5 * (F + F.transpose());
+  return informationThetaToG2o(F);
+}
+
+/// Information of a constant-velocity bridge edge (g2o parametrisation).
+Matrix6d bridgeInformation(double sigma_t, double sigma_r) {
+  Vector6d d;
+  const double it = 1.0 / (sigma_t * sigma_t), ir = 1.0 / (sigma_r * sigma_r);
+  d << it, it, it, ir, ir, ir;
+  return informationThetaToG2o(Matrix6d(d.asDiagonal()));
+}
+
+/// Why a match is not acceptable ("" when it is).
+std::string rejectReason(const MatchResult& r, const Isometry3d& T_guess, double min_quality,
+                         double min_inlier_ratio, double max_correction, double max_rotation) {
+  if (r.status != MatchStatus::Ok && r.status != MatchStatus::NotConverged &&
+      r.status != MatchStatus::Degenerate)
+    return std::string("match status ") + toString(r.status) +
+           (r.message.empty() ? "" : " (" + r.message + ")");
+  if (!r.T_target_source.matrix().allFinite()) return "non-finite pose";
+  if (r.quality < min_quality)
+    return "quality " + std::to_string(r.quality) + " < " + std::to_string(min_quality);
+  if (r.inlier_ratio < min_inlier_ratio)
+    return "inlier ratio " + std::to_string(r.inlier_ratio) + " < " +
+           std::to_string(min_inlier_ratio) + " (recent frames fit better)";
+  const Isometry3d delta = T_guess.inverse() * r.T_target_source;
+  const double dt = delta.translation().norm();
+  const double dr = rotationAngle(delta.linear());
+  if (dt > max_correction)
+    return "jump of " + std::to_string(dt) + " m from the constant-velocity guess (> " +
+           std::to_string(max_correction) + " m)";
+  if (dr > max_rotation)
+    return "jump of " + std::to_string(dr * kRadToDeg) +
+           " deg from the constant-velocity guess (> " + std::to_string(max_rotation * kRadToDeg) +
+           " deg)";
+  return {};
+}
+
+struct FrameRecord {
+  double timestamp = 0.0;
+  std::size_t keyframe = 0;
+  Isometry3d T_keyframe_frame = Isometry3d::Identity();
+  TrackingStatus status = TrackingStatus::Initial;
+};
+
+}  // namespace
+
+const char* toString(TrackingStatus status) {
+  switch (status) {
+    case TrackingStatus::Initial:
+      return "initial";
+    case TrackingStatus::Tracked:
+      return "tracked";
+    case TrackingStatus::Recovered:
+      return "recovered";
+    case TrackingStatus::Bridged:
+      return "bridged";
+  }
+  return "?";
+}
+
+MatcherChoice chooseMatcher(const FrontendParams& params) {
+  MatcherChoice c;
+  c.config = params.matcher;
+  if (!isObmNetType(c.config.type)) {
+    c.message = "matcher: " + c.config.type;
+    return c;
+  }
+  const std::string& model = c.config.obmnet.model_path;
+  if (std::filesystem::is_regular_file(model)) {
+    c.message = "matcher: " + c.config.type + " (model " + model + ")";
+    return c;
+  }
+  if (params.matcher_fallback.empty())
+    throw IoError("matcher: the OBMNet model '" + model + "' of matcher.type '" + c.config.type +
+                  "' does not exist (train one with obm-train, or set matcher.fallback: icp)");
+  if (isObmNetType(params.matcher_fallback))
+    throw ConfigError("matcher.fallback: '" + params.matcher_fallback +
+                      "' needs the same missing model '" + model + "'; use icp");
+  c.config.type = params.matcher_fallback;
+  c.fell_back = true;
+  c.message = "matcher: " + c.config.type + " (fallback: the OBMNet model '" + model +
+              "' of matcher.type '" + params.matcher.type + "' does not exist)";
+  return c;
+}
+
+struct Frontend::Impl {
+  FrontendParams p;
+  std::unique_ptr<ScanMatcher> matcher;  // loop verification, last-resort recovery
+  bool matcher_is_obmnet = false;
+  std::unique_ptr<IcpMatcher> tracker;   // frame → local map
+  std::unique_ptr<IcpMatcher> recovery;  // frame → local map, annealed wide gate
+  KeyframeSelector selector;
+  ConstantVelocityModel motion;
+  std::mt19937_64 rng;
+  backend::Optimizer optimizer;
+
+  std::vector<Keyframe> keyframes;
+  std::vector<FrameRecord> frames;
+  std::vector<LoopClosure> loops;
+  std::unique_ptr<PreparedTarget> local_map;
+  std::unique_ptr<PreparedTarget> last_keyframe_target;  // lazily, for OBMNet recovery
+  std::size_t local_map_first = 0;  // oldest keyframe the local map may use (after a restart)
+  std::size_t frames_since_keyframe = 0;
+  std::size_t bridge_run = 0;
+  std::deque<double> recent_inliers;  // inlier ratios of the last tracked frames
+  std::size_t next_loop_search = 0;   // keyframe id of the next loop search
+  Isometry3d T_world_current = Isometry3d::Identity();
+  double travelled = 0.0;
+  bool finished = false;
+  FrontendStats stats;
+  StageTimes times;
+
+  Impl(const FrontendParams& params, std::unique_ptr<ScanMatcher> m)
+      : p(params),
+        matcher(std::move(m)),
+        selector(params.keyframes),
+        rng(params.preprocess.seed),
+        optimizer(params.optimizer) {
+    p.validate();
+    matcher_is_obmnet = matcher->name().find("obmnet") != std::string::npos;
+    tracker = std::make_unique<IcpMatcher>(p.tracking.icp, p.tracking.confidence);
+    if (p.tracking.recovery_gate > 0.0) {
+      IcpParams r = p.tracking.icp;
+      r.initial_max_correspondence_distance =
+          std::max(p.tracking.recovery_gate, r.max_correspondence_distance);
+      r.max_iterations = std::max(r.max_iterations, 60);
+      recovery = std::make_unique<IcpMatcher>(r, p.tracking.confidence);
+    }
+  }
+
+  const char* verifyStage() const { return matcher_is_obmnet ? "obmnet" : "loop_icp"; }
+
+  // ---------------------------------------------------------------------------------------
+  FrameResult process(const PointCloud& sweep) {
+    OBM_ASSERT(!finished, "Frontend::process called after finish()");
+    FrameResult fr;
+    fr.index = frames.size();
+    fr.timestamp = sweep.timestamp;
+    ++stats.frames;
+
+    PointCloud cropped, source;
+    {
+      ScopedStage s(times, "preprocess");
+      cropped = cleanAndCrop(sweep, p.preprocess.min_range, p.preprocess.max_range, &fr.preprocess);
+      source = p.preprocess.voxel > 0.0 ? voxelDownsample(cropped, p.preprocess.voxel) : cropped;
+      if (p.preprocess.max_points > 0 && source.size() > p.preprocess.max_points)
+        source = randomSubset(source, p.preprocess.max_points, rng);
+      fr.preprocess.points_out = source.size();
+    }
+    const auto min_points = static_cast<std::size_t>(p.tracking.icp.min_correspondences);
+    const bool usable = source.size() >= min_points;
+    if (!usable) {
+      ++stats.empty_sweeps;
+      OBM_LOG_WARN_THROTTLE(kLog, 2.0,
+                            "frame " << fr.index << ": unusable sweep (" << fr.preprocess.points_in
+                                     << " points, " << fr.preprocess.non_finite << " non-finite, "
+                                     << fr.preprocess.cropped << " out of range, " << source.size()
+                                     << " left)");
+    }
+
+    // The first usable sweep starts the map at the identity.
+    if (keyframes.empty()) {
+      fr.status = TrackingStatus::Initial;
+      if (usable) {
+        addKeyframe(fr.index, sweep.timestamp, Isometry3d::Identity(), cropped, nullptr, false);
+        fr.keyframe = true;
+        motion.update(Isometry3d::Identity(), sweep.timestamp);
+      } else {
+        fr.reason = "no usable sweep yet";
+      }
+      record(fr, Isometry3d::Identity());
+      return fr;
+    }
+
+    const Isometry3d T_guess = motion.predict(sweep.timestamp, p.tracking.use_timestamps);
+    Isometry3d T = T_guess;
+    if (!usable) {
+      fr.status = TrackingStatus::Bridged;
+      fr.reason = "unusable sweep (" + std::to_string(source.size()) + " points after cleaning)";
+    } else {
+      track(source, T_guess, fr);
+      if (fr.status != TrackingStatus::Bridged) T = fr.match.T_target_source;
+    }
+
+    switch (fr.status) {
+      case TrackingStatus::Tracked:
+        ++stats.tracked;
+        bridge_run = 0;
+        break;
+      case TrackingStatus::Recovered:
+        ++stats.recovered;
+        bridge_run = 0;
+        OBM_LOG_WARN_THROTTLE(
+            kLog, 2.0,
+            "frame " << fr.index << ": recovered with a wide-gate match (" << fr.reason << ")");
+        break;
+      default:
+        ++stats.bridged;
+        ++bridge_run;
+        OBM_LOG_WARN_THROTTLE(kLog, 2.0,
+                              "frame " << fr.index << ": bridged with the constant-velocity guess ("
+                                       << fr.reason << ")");
+        break;
+    }
+    travelled += (T_world_current.inverse() * T).translation().norm();
+    motion.update(T, sweep.timestamp);
+    T_world_current = T;
+    ++frames_since_keyframe;
+
+    const Keyframe& last = keyframes.back();
+    // Only tracked frames become keyframes: a recovered pose is less certain and must not put
+    // its cloud into the local map (a wrong one would make the following frames consistently
+    // wrong).
+    if (fr.status == TrackingStatus::Tracked) {
+      if (selector.isKeyframe(last.T_world_sensor, T, frames_since_keyframe)) {
+        addKeyframe(fr.index, sweep.timestamp, T, cropped, &fr.match, false);
+        fr.keyframe = true;
+      }
+    } else if (fr.status == TrackingStatus::Bridged && bridge_run >= p.tracking.max_bridge_frames &&
+               usable) {
+      // The local map no longer explains the sweeps: start a new one here, joined to the old by a
+      // weak constant-velocity edge (loop closures may tie the pieces together later).
+      OBM_LOG_WARN(kLog, "frame " << fr.index << ": " << bridge_run
+                                  << " bridged frames in a row; restarting the local map");
+      ++stats.restarts;
+      local_map_first = keyframes.size();
+      recent_inliers.clear();
+      addKeyframe(fr.index, sweep.timestamp, T, cropped, nullptr, true);
+      fr.keyframe = true;
+      fr.restarted = true;
+      bridge_run = 0;
+    }
+    if (fr.keyframe) fr.loops_accepted = searchLoops();
+    fr.T_world_sensor = T_world_current;
+    record(fr, T_world_current);
+    return fr;
+  }
+
+  void record(FrameResult& fr, const Isometry3d& T_world_frame) {
+    FrameRecord rec;
+    rec.timestamp = fr.timestamp;
+    rec.status = fr.status;
+    if (!keyframes.empty()) {
+      rec.keyframe = keyframes.back().id;
+      rec.T_keyframe_frame = keyframes.back().T_world_sensor.inverse() * T_world_frame;
+    }
+    fr.keyframe_id = rec.keyframe;
+    fr.T_world_sensor = T_world_frame;
+    frames.push_back(rec);
+  }
+
+  // ---------------------------------------------------------------------------------------
+  /// Median inlier ratio of the last tracked frames (0 before the first).
+  double recentInlierRatio() const {
+    if (recent_inliers.empty()) return 0.0;
+    std::vector<double> q(recent_inliers.begin(), recent_inliers.end());
+    std::nth_element(q.begin(), q.begin() + q.size() / 2, q.end());
+    return q[q.size() / 2];
+  }
+
+  void track(const PointCloud& source, const Isometry3d& T_guess, FrameResult& fr) {
+    const TrackingParams& tp = p.tracking;
+    const double inl_ref = recentInlierRatio();
+    // Without a velocity yet (the second frame) the guess is the last pose and any motion up to
+    // the recovery bound is normal: register with the wide, annealed gate of the recovery (a
+    // narrow gate lets a street's ground and facades hold the scan where it was).
+    const bool have_velocity = motion.count() >= 2;
+    {
+      ScopedStage s(times, "icp");
+      fr.match = (have_velocity || !recovery) ? tracker->match(source, *local_map, T_guess)
+                                              : recovery->match(source, *local_map, T_guess);
+    }
+    std::string reason =
+        rejectReason(fr.match, T_guess, tp.min_quality, tp.relative_inlier_ratio * inl_ref,
+                     have_velocity ? tp.max_correction : tp.recovery_max_correction,
+                     have_velocity ? tp.max_correction_rotation : 4.0 * tp.max_correction_rotation);
+    if (reason.empty()) {
+      fr.status = TrackingStatus::Tracked;
+      recent_inliers.push_back(fr.match.inlier_ratio);
+      if (recent_inliers.size() > 10) recent_inliers.pop_front();
+      return;
+    }
+    const double max_rot = 4.0 * tp.max_correction_rotation;
+    const double recovery_q = tp.recovery_min_quality;
+    const double recovery_inl = tp.recovery_relative_inlier_ratio * inl_ref;
+    if (recovery) {
+      // Hypotheses: the guess, then the guess turned about the axis of the last motion (a car's
+      // vertical) by ±k·step — a wrong turn rate is the usual cause of a lost track.
+      Eigen::Vector3d axis = logSO3(motion.lastMotion().linear());
+      axis = axis.norm() > 0.5 * kDegToRad ? axis.normalized() : Eigen::Vector3d::UnitZ();
+      std::vector<double> angles{0.0};
+      for (int k = 1; k <= tp.recovery_rotation_hypotheses; ++k) {
+        angles.push_back(k * tp.recovery_rotation_step);
+        angles.push_back(-k * tp.recovery_rotation_step);
+      }
+      MatchResult best;
+      bool found = false;
+      std::string why;
+      for (double a : angles) {
+        Isometry3d T_start = T_guess;
+        T_start.linear() = T_guess.linear() * expSO3(a * axis);
+        MatchResult r;
+        {
+          ScopedStage s(times, "icp");
+          r = recovery->match(source, *local_map, T_start);
+        }
+        const std::string w =
+            rejectReason(r, T_guess, recovery_q, recovery_inl, tp.recovery_max_correction, max_rot);
+        if (w.empty() && (!found || r.inlier_ratio > best.inlier_ratio)) {
+          best = r;
+          found = true;
+          if (r.inlier_ratio >= inl_ref) break;  // as good as normal tracking: done
+        } else if (why.empty() && !w.empty()) {
+          why = w;
+        }
+      }
+      if (found) {
+        fr.match = best;
+        fr.status = TrackingStatus::Recovered;
+        fr.reason = reason;
+        return;
+      }
+      reason += "; wide-gate recovery: " + why;
+    }
+    if (matcher_is_obmnet) {
+      // Last resort: the network against the last keyframe, from the same guess (pre-aligned).
+      const Keyframe& kf = keyframes.back();
+      MatchResult r;
+      {
+        ScopedStage s(times, "obmnet");
+        if (!last_keyframe_target)
+          last_keyframe_target = std::make_unique<PreparedTarget>(matcher->prepare(kf.cloud));
+        r = matcher->match(source, *last_keyframe_target, kf.T_world_sensor.inverse() * T_guess);
+      }
+      r.T_target_source = kf.T_world_sensor * r.T_target_source;
+      const std::string why =
+          rejectReason(r, T_guess, recovery_q, recovery_inl, tp.recovery_max_correction, max_rot);
+      if (why.empty()) {
+        fr.match = r;
+        fr.status = TrackingStatus::Recovered;
+        fr.reason = reason;
+        return;
+      }
+      reason += "; " + matcher->name() + " recovery: " + why;
+    }
+    fr.status = TrackingStatus::Bridged;
+    fr.reason = reason;
+  }
+
+  // ---------------------------------------------------------------------------------------
+  void addKeyframe(std::size_t frame_index, double timestamp, const Isometry3d& T_world_sensor,
+                   const PointCloud& cropped, const MatchResult* match, bool bridged) {
+    Keyframe kf;
+    kf.id = keyframes.size();
+    kf.frame_index = frame_index;
+    kf.timestamp = timestamp;
+    kf.T_world_sensor = T_world_sensor;
+    kf.travelled = travelled;
+    kf.bridged = bridged;
+    {
+      ScopedStage s(times, "local_map");
+      kf.cloud = p.local_map.voxel > 0.0 ? voxelDownsample(cropped, p.local_map.voxel) : cropped;
+      kf.cloud.intensity.clear();
+      kf.cloud.colors.clear();
+    }
+    if (p.loop_closure.enabled && p.loop_closure.use_descriptor) {
+      ScopedStage s(times, "loop_search");
+      kf.descriptor = computeDescriptor(cropped, p.loop_closure.descriptor);
+    }
+    {
+      ScopedStage s(times, "graph");
+      optimizer.addNode(static_cast<backend::NodeId>(kf.id), T_world_sensor);
+      if (kf.id == 0) {
+        optimizer.setFixed(0, true);
+      } else {
+        const Keyframe& prev = keyframes.back();
+        backend::Edge3 e;
+        e.from = static_cast<backend::NodeId>(prev.id);
+        e.to = static_cast<backend::NodeId>(kf.id);
+        e.T_from_to = backend::Pose3::fromIsometry(prev.T_world_sensor.inverse() * T_world_sensor);
+        if (bridged || match == nullptr)
+          e.information = bridgeInformation(p.tracking.bridge_sigma_translation,
+                                            p.tracking.bridge_sigma_rotation);
+        else
+          e.information =
+              edgeInformation(match->information, p.tracking.information_scale,
+                              p.tracking.floor_sigma_translation, p.tracking.floor_sigma_rotation);
+        e.is_loop = false;
+        optimizer.addEdge(e);
+      }
+    }
+    keyframes.push_back(std::move(kf));
+    ++stats.keyframes;
+    frames_since_keyframe = 0;
+    last_keyframe_target.reset();
+    rebuildLocalMap();
+  }
+
+  void rebuildLocalMap() {
+    ScopedStage s(times, "local_map");
+    const std::size_t k = keyframes.size() - 1;
+    const std::size_t n = p.local_map.keyframes;
+    const std::size_t first = std::max(local_map_first, k + 1 > n ? k + 1 - n : std::size_t{0});
+    PointCloud merged;
+    std::size_t total = 0;
+    for (std::size_t i = first; i <= k; ++i) total += keyframes[i].cloud.size();
+    merged.points.reserve(total);
+    for (std::size_t i = first; i <= k; ++i) {
+      const Eigen::Isometry3f T = keyframes[i].T_world_sensor.cast<float>();
+      for (const Vector3f& q : keyframes[i].cloud.points) merged.points.push_back(T * q);
+    }
+    if (p.local_map.voxel > 0.0 && k > first) merged = voxelDownsample(merged, p.local_map.voxel);
+    const Vector3f center = keyframes[k].T_world_sensor.translation().cast<float>();
+    const float r2 = static_cast<float>(p.local_map.radius * p.local_map.radius);
+    PointCloud cropped;
+    cropped.points.reserve(merged.size());
+    for (const Vector3f& q : merged.points)
+      if ((q - center).squaredNorm() <= r2) cropped.points.push_back(q);
+    cropped.frame_id = "world";
+    local_map = std::make_unique<PreparedTarget>(cropped, tracker->icpParams().targetOptions());
+  }
+
+  // ---------------------------------------------------------------------------------------
+  /// Searches loop closures for the newest keyframe; returns how many were accepted.
+  std::size_t searchLoops() {
+    const LoopClosureParams& lp = p.loop_closure;
+    const std::size_t k = keyframes.size() - 1;
+    if (!lp.enabled || k == 0 || k < next_loop_search) return 0;
+    next_loop_search = k + lp.check_every;
+    ++stats.loop_searches;
+
+    std::vector<std::pair<double, std::size_t>> candidates;
+    {
+      ScopedStage s(times, "loop_search");
+      const Keyframe& cur = keyframes[k];
+      for (std::size_t j = 0; j < k; ++j) {
+        const Keyframe& c = keyframes[j];
+        const double along = cur.travelled - c.travelled;
+        if (along < lp.min_travel) continue;
+        const double radius =
+            std::min(lp.max_search_radius, lp.search_radius + lp.search_radius_per_m * along);
+        const double d = (cur.T_world_sensor.translation() - c.T_world_sensor.translation()).norm();
+        if (d <= radius) candidates.emplace_back(d, j);
+      }
+      std::sort(candidates.begin(), candidates.end());
+    }
+    std::vector<std::size_t> tried;
+    std::size_t accepted = 0;
+    for (const auto& [d, j] : candidates) {
+      if (tried.size() >= lp.max_candidates) break;
+      // Candidates next to one already tried would verify against nearly the same submap.
+      bool near_tried = false;
+      for (std::size_t t : tried)
+        if (static_cast<long>(std::max(t, j) - std::min(t, j)) <= lp.submap_keyframes)
+          near_tried = true;
+      if (near_tried) continue;
+      tried.push_back(j);
+      LoopClosure lc;
+      lc.from = j;
+      lc.to = k;
+      if (lp.use_descriptor) {
+        ScopedStage s(times, "loop_search");
+        lc.descriptor_distance =
+            compareDescriptors(keyframes[k].descriptor, keyframes[j].descriptor).distance;
+      }
+      if (lp.use_descriptor && lc.descriptor_distance > lp.max_descriptor_distance) {
+        lc.reason = "descriptor distance " + std::to_string(lc.descriptor_distance);
+        loops.push_back(lc);
+        continue;
+      }
+      verify(lc, d);
+      loops.push_back(lc);
+      if (lc.accepted) {
+        ++accepted;
+        break;
+      }
+    }
+    if (accepted > 0) {
+      next_loop_search = k + std::max(lp.check_every, lp.cooldown);
+      optimize();
+    }
+    return accepted;
+  }
+
+  void verify(LoopClosure& lc, double distance) {
+    const LoopClosureParams& lp = p.loop_closure;
+    const Keyframe& cur = keyframes[lc.to];
+    const Keyframe& cand = keyframes[lc.from];
+    ++stats.loop_candidates;
+    MatchResult r;
+    const Isometry3d T_init = cand.T_world_sensor.inverse() * cur.T_world_sensor;
+    {
+      ScopedStage s(times, verifyStage());
+      // Target: the candidate and its neighbours, in the candidate's frame.
+      const long w = lp.submap_keyframes;
+      const long lo = std::max<long>(0, static_cast<long>(lc.from) - w);
+      const long hi = std::min<long>(static_cast<long>(lc.to) - 1, static_cast<long>(lc.from) + w);
+      PointCloud submap;
+      const Isometry3d T_cand_world = cand.T_world_sensor.inverse();
+      for (long i = lo; i <= hi; ++i) {
+        const Keyframe& kf = keyframes[static_cast<std::size_t>(i)];
+        if (cur.travelled - kf.travelled < 0.5 * lp.min_travel) continue;  // not the recent past
+        const Eigen::Isometry3f T = (T_cand_world * kf.T_world_sensor).cast<float>();
+        for (const Vector3f& q : kf.cloud.points) submap.points.push_back(T * q);
+      }
+      if (p.local_map.voxel > 0.0) submap = voxelDownsample(submap, p.local_map.voxel);
+      const PreparedTarget target = matcher->prepare(submap);
+      r = matcher->match(cur.cloud, target, T_init);
+    }
+    lc.T_from_to = r.T_target_source;
+    lc.quality = r.quality;
+    lc.inlier_ratio = r.inlier_ratio;
+    lc.correction = (T_init.inverse() * r.T_target_source).translation().norm();
+    const double max_corr = lp.max_correction > 0.0
+                                ? lp.max_correction
+                                : std::min(lp.max_search_radius,
+                                           lp.search_radius + lp.search_radius_per_m *
+                                                                  (cur.travelled - cand.travelled));
+    if (r.status != MatchStatus::Ok && r.status != MatchStatus::NotConverged)
+      lc.reason = std::string("match status ") + toString(r.status);
+    else if (!r.T_target_source.matrix().allFinite())
+      lc.reason = "non-finite pose";
+    else if (r.quality < lp.min_quality)
+      lc.reason = "quality " + std::to_string(r.quality);
+    else if (r.inlier_ratio < lp.min_inlier_ratio)
+      lc.reason = "inlier ratio " + std::to_string(r.inlier_ratio);
+    else if (lc.correction > max_corr)
+      lc.reason = "correction " + std::to_string(lc.correction) + " m";
+    lc.accepted = lc.reason.empty();
+    if (!lc.accepted) {
+      ++stats.loops_rejected;
+      OBM_LOG_DEBUG(kLog, "loop " << lc.from << " -> " << lc.to << " rejected: " << lc.reason);
+      return;
+    }
+    ++stats.loops_accepted;
+    OBM_LOG_INFO(kLog, "loop closure keyframe " << lc.to << " -> " << lc.from << " (" << distance
+                                                << " m apart, correction " << lc.correction
+                                                << " m, quality " << r.quality << ", inliers "
+                                                << r.inlier_ratio << ")");
+    ScopedStage s(times, "graph");
+    backend::Edge3 e;
+    e.from = static_cast<backend::NodeId>(lc.from);
+    e.to = static_cast<backend::NodeId>(lc.to);
+    e.T_from_to = backend::Pose3::fromIsometry(r.T_target_source);
+    e.information = edgeInformation(r.information, lp.information_scale, lp.floor_sigma_translation,
+                                    lp.floor_sigma_rotation);
+    e.loss = lp.loss;
+    e.is_loop = true;
+    optimizer.addEdge(e);
+  }
+
+  void optimize() {
+    backend::Summary sum;
+    {
+      ScopedStage s(times, "graph");
+      sum = optimizer.optimize();
+    }
+    ++stats.optimizations;
+    if (!sum.usable) {
+      OBM_LOG_WARN(kLog, "pose-graph optimisation unusable (" << sum.message
+                                                              << "); keeping the odometry poses");
+      return;
+    }
+    OBM_LOG_DEBUG(kLog, "graph optimised: chi2 " << sum.initial_chi2 << " -> " << sum.final_chi2
+                                                 << " in " << sum.iterations << " iterations");
+    const Isometry3d T_old_last = keyframes.back().T_world_sensor;
+    for (Keyframe& kf : keyframes) {
+      const Isometry3d T = optimizer.pose(static_cast<backend::NodeId>(kf.id));
+      if (T.matrix().allFinite()) kf.T_world_sensor = T;
+    }
+    // The frames since the newest keyframe move with it; the motion model too.
+    const Isometry3d T_new_old = keyframes.back().T_world_sensor * T_old_last.inverse();
+    T_world_current = T_new_old * T_world_current;
+    motion.applyCorrection(T_new_old);
+    rebuildLocalMap();
+  }
+};
+
+Frontend::Frontend(const FrontendParams& params) {
+  const MatcherChoice choice = chooseMatcher(params);
+  if (choice.fell_back)
+    OBM_LOG_WARN(kLog, choice.message);
+  else
+    OBM_LOG_INFO(kLog, choice.message);
+  impl_ = std::make_unique<Impl>(params, makeScanMatcher(choice.config));
+}
+
+Frontend::Frontend(const FrontendParams& params, std::unique_ptr<ScanMatcher> matcher) {
+  OBM_ASSERT(matcher != nullptr, "Frontend: the matcher must not be null");
+  impl_ = std::make_unique<Impl>(params, std::move(matcher));
+}
+
+Frontend::~Frontend() = default;
+
+FrameResult Frontend::process(const PointCloud& sweep) {
+  return impl_->process(sweep);
+}
+
+void Frontend::finish() {
+  impl_->finished = true;
+}
+
+std::vector<Isometry3d> Frontend::trajectory() const {
+  std::vector<Isometry3d> out;
+  out.reserve(impl_->frames.size());
+  for (const FrameRecord& f : impl_->frames) {
+    if (impl_->keyframes.empty())
+      out.push_back(Isometry3d::Identity());
+    else
+      out.push_back(impl_->keyframes[f.keyframe].T_world_sensor * f.T_keyframe_frame);
+  }
+  return out;
+}
+
+std::vector<double> Frontend::timestamps() const {
+  std::vector<double> out;
+  out.reserve(impl_->frames.size());
+  for (const FrameRecord& f : impl_->frames) out.push_back(f.timestamp);
+  return out;
+}
+
+std::vector<TrackingStatus> Frontend::statuses() const {
+  std::vector<TrackingStatus> out;
+  out.reserve(impl_->frames.size());
+  for (const FrameRecord& f : impl_->frames) out.push_back(f.status);
+  return out;
+}
+
+std::vector<std::size_t> Frontend::frameKeyframes() const {
+  std::vector<std::size_t> out;
+  out.reserve(impl_->frames.size());
+  for (const FrameRecord& f : impl_->frames) out.push_back(f.keyframe);
+  return out;
+}
+
+const std::vector<Keyframe>& Frontend::keyframes() const {
+  return impl_->keyframes;
+}
+const std::vector<LoopClosure>& Frontend::loops() const {
+  return impl_->loops;
+}
+backend::PoseGraph Frontend::graph() const {
+  return impl_->optimizer.graph();
+}
+const FrontendStats& Frontend::stats() const {
+  return impl_->stats;
+}
+const StageTimes& Frontend::times() const {
+  return impl_->times;
+}
+std::string Frontend::matcherName() const {
+  return impl_->matcher->name();
+}
+const FrontendParams& Frontend::params() const {
+  return impl_->p;
+}
+
+}  // namespace obm::frontend

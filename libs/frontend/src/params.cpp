@@ -1,0 +1,293 @@
+#include "obm/frontend/params.hpp"
+
+#include <cmath>
+#include <string>
+
+#include "obm/config/config_node.hpp"
+#include "obm/core/errors.hpp"
+
+namespace obm::frontend {
+
+namespace {
+
+/// Throws ConfigError "<where>: <what>" when `ok` is false. `where` is the YAML key path when the
+/// value came from a file, else the field name.
+void require(bool ok, const std::string& where, const std::string& what) {
+  if (!ok) throw ConfigError(where + ": " + what);
+}
+
+bool finite(double v) {
+  return std::isfinite(v);
+}
+
+/// Re-throws a validation error with the YAML location of the section in front.
+template <typename F>
+void validateAt(const ConfigNode& node, F&& validate) {
+  try {
+    validate();
+  } catch (const ConfigError& e) {
+    throw ConfigError(node.where() + ": " + e.what());
+  }
+}
+
+}  // namespace
+
+// --- preprocess ------------------------------------------------------------------------------
+
+void PreprocessParams::validate() const {
+  require(finite(min_range) && min_range >= 0.0, "min_range", "must be >= 0 [m]");
+  require(finite(max_range), "max_range", "must be finite (<= 0 = no upper bound)");
+  require(max_range <= 0.0 || max_range > min_range, "max_range", "must exceed min_range");
+  require(finite(voxel) && voxel >= 0.0, "voxel", "must be >= 0 [m] (0 = off)");
+}
+
+PreprocessParams PreprocessParams::load(const ConfigNode& node) {
+  node.checkKeys({"min_range", "max_range", "voxel", "max_points", "seed"});
+  PreprocessParams p;
+  node.get("min_range", p.min_range);
+  node.get("max_range", p.max_range);
+  node.get("voxel", p.voxel);
+  node.get("max_points", p.max_points);
+  node.get("seed", p.seed);
+  validateAt(node, [&] { p.validate(); });
+  return p;
+}
+
+// --- keyframes -------------------------------------------------------------------------------
+
+void KeyframeParams::validate() const {
+  require(finite(distance) && distance > 0.0, "distance", "must be > 0 [m]");
+  require(finite(rotation) && rotation > 0.0, "rotation_deg", "must be > 0 [deg]");
+}
+
+KeyframeParams KeyframeParams::load(const ConfigNode& node) {
+  node.checkKeys({"distance", "rotation_deg", "max_frames"});
+  KeyframeParams p;
+  node.get("distance", p.distance);
+  node.getDegAsRad("rotation_deg", p.rotation);
+  node.get("max_frames", p.max_frames);
+  validateAt(node, [&] { p.validate(); });
+  return p;
+}
+
+// --- local map -------------------------------------------------------------------------------
+
+void LocalMapParams::validate() const {
+  require(keyframes >= 1, "keyframes", "must be >= 1");
+  require(finite(voxel) && voxel >= 0.0, "voxel", "must be >= 0 [m] (0 = off)");
+  require(finite(radius) && radius > 0.0, "radius", "must be > 0 [m]");
+}
+
+LocalMapParams LocalMapParams::load(const ConfigNode& node) {
+  node.checkKeys({"keyframes", "voxel", "radius"});
+  LocalMapParams p;
+  node.get("keyframes", p.keyframes);
+  node.get("voxel", p.voxel);
+  node.get("radius", p.radius);
+  validateAt(node, [&] { p.validate(); });
+  return p;
+}
+
+// --- tracking --------------------------------------------------------------------------------
+
+void TrackingParams::validate() const {
+  require(min_quality >= 0.0 && min_quality <= 1.0, "min_quality", "must be in [0, 1]");
+  require(finite(max_correction) && max_correction > 0.0, "max_correction", "must be > 0 [m]");
+  require(finite(max_correction_rotation) && max_correction_rotation > 0.0,
+          "max_correction_rotation_deg", "must be > 0 [deg]");
+  require(finite(recovery_gate) && recovery_gate >= 0.0, "recovery_gate",
+          "must be >= 0 [m] (0 = no recovery)");
+  require(finite(recovery_max_correction) && recovery_max_correction > 0.0,
+          "recovery_max_correction", "must be > 0 [m]");
+  require(recovery_min_quality >= 0.0 && recovery_min_quality <= 1.0, "recovery_min_quality",
+          "must be in [0, 1]");
+  require(relative_inlier_ratio >= 0.0 && relative_inlier_ratio <= 1.0, "relative_inlier_ratio",
+          "must be in [0, 1]");
+  require(recovery_relative_inlier_ratio >= 0.0 && recovery_relative_inlier_ratio <= 1.0,
+          "recovery_relative_inlier_ratio", "must be in [0, 1]");
+  require(finite(recovery_rotation_step) && recovery_rotation_step > 0.0,
+          "recovery_rotation_step_deg", "must be > 0 [deg]");
+  require(recovery_rotation_hypotheses >= 0, "recovery_rotation_hypotheses", "must be >= 0");
+  require(max_bridge_frames >= 1, "max_bridge_frames", "must be >= 1");
+  require(finite(information_scale) && information_scale > 0.0, "information_scale", "must be > 0");
+  require(finite(floor_sigma_translation) && floor_sigma_translation >= 0.0,
+          "floor_sigma_translation", "must be >= 0 [m]");
+  require(finite(floor_sigma_rotation) && floor_sigma_rotation >= 0.0, "floor_sigma_rotation_deg",
+          "must be >= 0 [deg]");
+  require(finite(bridge_sigma_translation) && bridge_sigma_translation > 0.0,
+          "bridge_sigma_translation", "must be > 0 [m]");
+  require(finite(bridge_sigma_rotation) && bridge_sigma_rotation > 0.0, "bridge_sigma_rotation_deg",
+          "must be > 0 [deg]");
+  icp.validate();
+  confidence.validate();
+}
+
+TrackingParams TrackingParams::load(const ConfigNode& node) {
+  node.checkKeys({"icp", "confidence", "min_quality", "max_correction",
+                  "max_correction_rotation_deg", "relative_inlier_ratio", "recovery_gate",
+                  "recovery_max_correction", "recovery_min_quality",
+                  "recovery_relative_inlier_ratio", "recovery_rotation_step_deg",
+                  "recovery_rotation_hypotheses", "max_bridge_frames", "information_scale",
+                  "floor_sigma_translation", "floor_sigma_rotation_deg", "bridge_sigma_translation",
+                  "bridge_sigma_rotation_deg", "use_timestamps"});
+  TrackingParams p;
+  p.icp = IcpParams::load(node.child("icp"));
+  p.confidence = ConfidenceParams::load(node.child("confidence"));
+  node.get("min_quality", p.min_quality);
+  node.get("max_correction", p.max_correction);
+  node.getDegAsRad("max_correction_rotation_deg", p.max_correction_rotation);
+  node.get("recovery_gate", p.recovery_gate);
+  node.get("recovery_max_correction", p.recovery_max_correction);
+  node.get("recovery_min_quality", p.recovery_min_quality);
+  node.get("relative_inlier_ratio", p.relative_inlier_ratio);
+  node.get("recovery_relative_inlier_ratio", p.recovery_relative_inlier_ratio);
+  node.getDegAsRad("recovery_rotation_step_deg", p.recovery_rotation_step);
+  node.get("recovery_rotation_hypotheses", p.recovery_rotation_hypotheses);
+  node.get("max_bridge_frames", p.max_bridge_frames);
+  node.get("information_scale", p.information_scale);
+  node.get("floor_sigma_translation", p.floor_sigma_translation);
+  node.getDegAsRad("floor_sigma_rotation_deg", p.floor_sigma_rotation);
+  node.get("bridge_sigma_translation", p.bridge_sigma_translation);
+  node.getDegAsRad("bridge_sigma_rotation_deg", p.bridge_sigma_rotation);
+  node.get("use_timestamps", p.use_timestamps);
+  validateAt(node, [&] {
+    try {
+      p.validate();
+    } catch (const ContractError& e) {  // IcpParams / ConfidenceParams report ContractError
+      throw ConfigError(e.what());
+    }
+  });
+  return p;
+}
+
+// --- descriptor ------------------------------------------------------------------------------
+
+void DescriptorParams::validate() const {
+  require(rings >= 1, "rings", "must be >= 1");
+  require(sectors >= 4, "sectors", "must be >= 4");
+  require(finite(max_range) && max_range > 0.0, "max_range", "must be > 0 [m]");
+  require(finite(height_offset), "height_offset", "must be finite [m]");
+}
+
+DescriptorParams DescriptorParams::load(const ConfigNode& node) {
+  node.checkKeys({"rings", "sectors", "max_range", "height_offset"});
+  DescriptorParams p;
+  node.get("rings", p.rings);
+  node.get("sectors", p.sectors);
+  node.get("max_range", p.max_range);
+  node.get("height_offset", p.height_offset);
+  validateAt(node, [&] { p.validate(); });
+  return p;
+}
+
+// --- loop closure ----------------------------------------------------------------------------
+
+void LoopClosureParams::validate() const {
+  require(finite(min_travel) && min_travel > 0.0, "min_travel", "must be > 0 [m]");
+  require(finite(search_radius) && search_radius > 0.0, "search_radius", "must be > 0 [m]");
+  require(finite(search_radius_per_m) && search_radius_per_m >= 0.0, "search_radius_per_m",
+          "must be >= 0");
+  require(finite(max_search_radius) && max_search_radius >= search_radius, "max_search_radius",
+          "must be >= search_radius [m]");
+  require(check_every >= 1, "check_every", "must be >= 1");
+  require(max_candidates >= 1, "max_candidates", "must be >= 1");
+  require(submap_keyframes >= 0, "submap_keyframes", "must be >= 0");
+  require(max_descriptor_distance >= 0.0 && max_descriptor_distance <= 1.0,
+          "max_descriptor_distance", "must be in [0, 1]");
+  require(min_quality >= 0.0 && min_quality <= 1.0, "min_quality", "must be in [0, 1]");
+  require(min_inlier_ratio >= 0.0 && min_inlier_ratio <= 1.0, "min_inlier_ratio",
+          "must be in [0, 1]");
+  require(finite(max_correction) && max_correction >= 0.0, "max_correction",
+          "must be >= 0 [m] (0 = the search radius)");
+  require(finite(information_scale) && information_scale > 0.0, "information_scale", "must be > 0");
+  require(finite(floor_sigma_translation) && floor_sigma_translation >= 0.0,
+          "floor_sigma_translation", "must be >= 0 [m]");
+  require(finite(floor_sigma_rotation) && floor_sigma_rotation >= 0.0, "floor_sigma_rotation_deg",
+          "must be >= 0 [deg]");
+  require(loss.kind != backend::LossKind::Default, "loss", "must name a loss (none, huber:δ, ...)");
+  require(finite(loss.scale) && loss.scale > 0.0, "loss", "scale must be > 0");
+  descriptor.validate();
+}
+
+LoopClosureParams LoopClosureParams::load(const ConfigNode& node) {
+  node.checkKeys({"enabled", "min_travel", "search_radius", "search_radius_per_m",
+                  "max_search_radius", "check_every", "max_candidates", "cooldown",
+                  "submap_keyframes", "use_descriptor", "max_descriptor_distance", "min_quality",
+                  "min_inlier_ratio", "max_correction", "information_scale",
+                  "floor_sigma_translation", "floor_sigma_rotation_deg", "loss", "descriptor"});
+  LoopClosureParams p;
+  node.get("enabled", p.enabled);
+  node.get("min_travel", p.min_travel);
+  node.get("search_radius", p.search_radius);
+  node.get("search_radius_per_m", p.search_radius_per_m);
+  node.get("max_search_radius", p.max_search_radius);
+  node.get("check_every", p.check_every);
+  node.get("max_candidates", p.max_candidates);
+  node.get("cooldown", p.cooldown);
+  node.get("submap_keyframes", p.submap_keyframes);
+  node.get("use_descriptor", p.use_descriptor);
+  node.get("max_descriptor_distance", p.max_descriptor_distance);
+  node.get("min_quality", p.min_quality);
+  node.get("min_inlier_ratio", p.min_inlier_ratio);
+  node.get("max_correction", p.max_correction);
+  node.get("information_scale", p.information_scale);
+  node.get("floor_sigma_translation", p.floor_sigma_translation);
+  node.getDegAsRad("floor_sigma_rotation_deg", p.floor_sigma_rotation);
+  if (node.has("loss")) {
+    try {
+      p.loss = backend::parseLoss(node.required<std::string>("loss"));
+    } catch (const ConfigError& e) {
+      throw ConfigError(node.where("loss") + ": " + e.what());
+    }
+  }
+  p.descriptor = DescriptorParams::load(node.child("descriptor"));
+  validateAt(node, [&] { p.validate(); });
+  return p;
+}
+
+// --- all -------------------------------------------------------------------------------------
+
+std::vector<std::string> FrontendParams::sections() {
+  return {"preprocess",   "keyframes", "local_map", "tracking",
+          "loop_closure", "matcher",   "optimizer"};
+}
+
+void FrontendParams::validate() const {
+  preprocess.validate();
+  keyframes.validate();
+  local_map.validate();
+  tracking.validate();
+  loop_closure.validate();
+  if (!matcher_fallback.empty() && matcher_fallback != "icp" && matcher_fallback != "obmnet" &&
+      matcher_fallback != "obmnet+icp")
+    throw ConfigError("matcher.fallback: unknown matcher type '" + matcher_fallback +
+                      "' (icp, obmnet, obmnet+icp)");
+}
+
+FrontendParams FrontendParams::load(const ConfigNode& node) {
+  FrontendParams p;
+  p.preprocess = PreprocessParams::load(node.child("preprocess"));
+  p.keyframes = KeyframeParams::load(node.child("keyframes"));
+  p.local_map = LocalMapParams::load(node.child("local_map"));
+  p.tracking = TrackingParams::load(node.child("tracking"));
+  p.loop_closure = LoopClosureParams::load(node.child("loop_closure"));
+  if (node.has("matcher")) {
+    // `fallback` is this library's key; the rest is obm::ScanMatcherConfig's.
+    const ConfigNode m = node.child("matcher");
+    YAML::Node copy = YAML::Clone(m.yaml());
+    if (copy.IsMap() && copy["fallback"]) {
+      p.matcher_fallback = m.required<std::string>("fallback");
+      copy.remove("fallback");
+    }
+    p.matcher = ScanMatcherConfig::load(ConfigNode(copy, m.file(), "matcher"));
+  }
+  if (node.has("optimizer")) p.optimizer = backend::Options::load(node.child("optimizer"));
+  try {
+    p.validate();
+  } catch (const ConfigError& e) {
+    throw ConfigError(node.where() + ": " + e.what());
+  }
+  return p;
+}
+
+}  // namespace obm::frontend

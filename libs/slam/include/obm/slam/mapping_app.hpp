@@ -1,0 +1,109 @@
+#pragma once
+/// \file mapping_app.hpp
+/// The logic of `obm-map` (docs/obm-map.md): plays a sequence — a KITTI odometry folder, an RGB-D
+/// folder (TUM RGB-D, ICL-NUIM, 7-Scenes, Redwood) or an MRPT rawlog — through the SLAM front-end
+/// (obm::frontend::Frontend), integrates the keyframes into an OctoMap (obm::mapping) and writes
+/// to the output folder:
+///
+///   trajectory_tum.txt     every frame, T_world_sensor, TUM format (KITTI input: the LiDAR)
+///   trajectory_kitti.txt   every frame, KITTI format; for a KITTI input the camera-0 poses
+///                          T_cam = Tr·T_velo·Tr⁻¹ like the dataset's poses.txt (first = I)
+///   keyframes_tum.txt      the keyframes' optimised poses, TUM format
+///   frames.csv             per frame: status, keyframe, match quality, points
+///   loops.csv              every verified loop candidate, accepted or not
+///   graph.g2o              the pose graph (VERTEX_SE3:QUAT / EDGE_SE3:QUAT)
+///   map.bt, map.ot         the OctoMap (maximum likelihood / full probabilities)
+///   metrics.json           KITTI t_err / r_err, ATE, RPE against the ground truth, loop counts
+///   timing.json            frames, wall time, frames/s, per-stage milliseconds
+///   trajectory_topview.png the estimate (red) over the aligned ground truth (black), loops (blue)
+///   map_topview.png        the map's top view (height of the highest occupied voxel)
+///
+/// Every file is written atomically. A cancel flag (Ctrl-C in the app) stops after the current
+/// frame and everything processed so far is written.
+#include <atomic>
+#include <cstddef>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "obm/core/se3.hpp"
+#include "obm/frontend/frontend.hpp"
+#include "obm/slam/slam_config.hpp"
+
+namespace obm::slam {
+
+/// Command-line level choices.
+struct MappingAppOptions {
+  std::string input;           ///< KITTI sequence folder, RGB-D folder or `.rawlog`
+  std::string out_dir;         ///< output folder (created)
+  std::string ground_truth;    ///< ground-truth file ("" = look next to the input)
+  std::size_t max_frames = 0;  ///< stop after this many frames (0 = all)
+  bool progress = true;        ///< progress bar on stderr
+  /// Set (e.g. by a SIGINT handler) to stop after the current frame; outputs are still written.
+  const std::atomic<bool>* cancel = nullptr;
+};
+
+/// Accuracy against the ground truth (NaN where not computable, e.g. no 100 m segment).
+struct TrajectoryMetrics {
+  std::size_t frames_evaluated = 0;  ///< frames with a ground-truth pose
+  std::size_t kitti_segments = 0;
+  double t_err_percent = 0.0;       ///< KITTI devkit translation error [%]
+  double r_err_deg_per_100m = 0.0;  ///< KITTI devkit rotation error [deg/100 m]
+  double ate_rmse_m = 0.0;          ///< after rigid (SE(3)) Umeyama alignment
+  double ate_mean_m = 0.0;
+  double ate_max_m = 0.0;
+  double rpe_trans_rmse_m = 0.0;  ///< frame-to-frame relative pose error, translation [m]
+  double rpe_rot_rmse_deg = 0.0;  ///< frame-to-frame relative pose error, rotation [deg]
+  double length_m = 0.0;          ///< ground-truth path length [m]
+  std::string frame;              ///< frame the poses were compared in ("camera0", "sensor")
+};
+
+/// What a run did.
+struct RunSummary {
+  std::string input_kind;  ///< "kitti", "tum-rgbd", "icl-nuim", "7scenes", "redwood", "rawlog"
+  std::string matcher;     ///< loop / recovery matcher used ("icp", "obmnet+icp")
+  std::size_t frames = 0;  ///< frames processed
+  std::size_t frames_total = 0;  ///< frames in the input (0 = unknown, rawlog)
+  frontend::FrontendStats stats;
+  bool interrupted = false;  ///< the cancel flag stopped the run
+  double wall_s = 0.0;       ///< whole run, outputs included
+  double frames_per_second = 0.0;
+  std::map<std::string, double> stages_ms;   ///< per-stage totals (timing.json)
+  std::optional<TrajectoryMetrics> metrics;  ///< when ground truth was available
+  std::string ground_truth;                  ///< the ground-truth file used ("" = none)
+  bool map_rebuilt = false;                  ///< the OctoMap was rebuilt at the final poses
+  std::vector<std::string> files;            ///< files written
+};
+
+class MappingApp {
+ public:
+  /// Validates the options (ConfigError for an empty input / output). Inputs are opened by run().
+  MappingApp(SlamConfig config, MappingAppOptions options);
+  ~MappingApp();
+
+  /// Plays the input and writes the outputs. Throws IoError / FormatError naming the file for a
+  /// bad input, a missing or corrupt model, or an output folder that cannot be written — checked
+  /// before the first frame; bad frames are counted and bridged, not thrown.
+  RunSummary run();
+
+  const SlamConfig& config() const { return config_; }
+
+ private:
+  SlamConfig config_;
+  MappingAppOptions options_;
+};
+
+/// A one-screen text summary of a run (frames, keyframes, loops, metrics, speed, files).
+std::string formatSummary(const RunSummary& summary);
+
+/// Draws the top view of a trajectory (x right, y up, in the plane given by T_view_world's x–y):
+/// `reference` (black, may be empty) under `estimate` (red), loop edges between estimate poses
+/// (blue), start (green dot). Writes an RGB PNG atomically; returns the metres per pixel.
+double writeTrajectoryPng(const std::string& path, const std::vector<Isometry3d>& estimate,
+                          const std::vector<Isometry3d>& reference,
+                          const std::vector<std::pair<std::size_t, std::size_t>>& loops,
+                          const Isometry3d& T_view_world = Isometry3d::Identity(),
+                          int max_pixels = 2048);
+
+}  // namespace obm::slam

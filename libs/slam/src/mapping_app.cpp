@@ -1,0 +1,385 @@
+#include "obm/slam/mapping_app.hpp"
+
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <iomanip>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <thread>
+
+#include "map_worker.hpp"
+#include "obm/backend/graph_io.hpp"
+#include "obm/core/atomic_file.hpp"
+#include "obm/core/errors.hpp"
+#include "obm/core/log.hpp"
+#include "obm/core/progress.hpp"
+#include "obm/core/timer.hpp"
+#include "obm/eval/kitti_odometry.hpp"
+#include "obm/eval/trajectory_metrics.hpp"
+#include "obm/io/kitti.hpp"
+#include "obm/io/trajectory.hpp"
+#include "sources.hpp"
+
+namespace fs = std::filesystem;
+
+namespace obm::slam {
+
+namespace {
+
+constexpr const char* kLog = "obm-map";
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+double processCpuSeconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+/// JSON number, or null for NaN / infinity (JSON has no NaN).
+nlohmann::json num(double v) {
+  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();
+}
+
+/// Fails early (before any frame is processed) when the output folder cannot be written.
+void checkWritable(const std::string& dir) {
+  ensureDirectory(dir);
+  const std::string probe = (fs::path(dir) / ".obm-map-write-test").string();
+  try {
+    writeTextAtomically(probe, "");
+  } catch (const Error& e) {
+    throw IoError("output folder '" + dir + "' cannot be written: " + e.what());
+  }
+  std::error_code ec;
+  fs::remove(probe, ec);
+}
+
+TrajectoryMetrics computeMetrics(const std::vector<Isometry3d>& est_all,
+                                 const detail::GroundTruth& gt, const io::KittiCalib* calib) {
+  TrajectoryMetrics m;
+  eval::PoseList est, ref;
+  for (std::size_t i = 0; i < est_all.size() && i < gt.T_world_body.size(); ++i) {
+    if (!gt.T_world_body[i]) continue;
+    est.push_back(est_all[i]);
+    ref.push_back(*gt.T_world_body[i]);
+  }
+  m.frames_evaluated = est.size();
+  m.frame = "sensor";
+  if (calib) {
+    // The devkit's convention: camera-0 poses (T_cam = Tr·T_velo·Tr⁻¹), as in poses.txt.
+    est = io::lidarToCameraPoses(est, calib->T_cam0_velo);
+    ref = io::lidarToCameraPoses(ref, calib->T_cam0_velo);
+    m.frame = "camera0";
+  }
+  const auto dist = eval::trajectoryDistances(ref);
+  m.length_m = dist.empty() ? 0.0 : dist.back();
+  m.t_err_percent = m.r_err_deg_per_100m = kNaN;
+  m.ate_rmse_m = m.ate_mean_m = m.ate_max_m = kNaN;
+  m.rpe_trans_rmse_m = m.rpe_rot_rmse_deg = kNaN;
+  if (est.size() < 3) return m;
+  const auto kitti = eval::evaluateKittiOdometry(ref, est);
+  m.kitti_segments = kitti.n_segments;
+  if (kitti.n_segments > 0) {
+    m.t_err_percent = kitti.t_err_percent;
+    m.r_err_deg_per_100m = kitti.r_err_deg_per_100m;
+  }
+  const auto ate = eval::absoluteTrajectoryError(ref, est, eval::Alignment::SE3);
+  m.ate_rmse_m = ate.rmse;
+  m.ate_mean_m = ate.mean;
+  m.ate_max_m = ate.max;
+  const auto rpe = eval::relativePoseError(ref, est);
+  if (rpe.n_pairs > 0) {
+    m.rpe_trans_rmse_m = rpe.trans_rmse;
+    m.rpe_rot_rmse_deg = rpe.rot_rmse_deg;
+  }
+  return m;
+}
+
+std::string fmt(double v, int precision = 3) {
+  if (!std::isfinite(v)) return "n/a";
+  std::ostringstream os;
+  os << std::fixed << std::setprecision(precision) << v;
+  return os.str();
+}
+
+}  // namespace
+
+MappingApp::MappingApp(SlamConfig config, MappingAppOptions options)
+    : config_(std::move(config)), options_(std::move(options)) {
+  if (options_.input.empty()) throw ConfigError("obm-map: the input is empty");
+  if (options_.out_dir.empty()) throw ConfigError("obm-map: the output folder is empty");
+  config_.frontend.validate();
+  config_.mapping.validate();
+  config_.input.validate();
+  config_.output.validate();
+}
+
+MappingApp::~MappingApp() = default;
+
+RunSummary MappingApp::run() {
+  Timer wall;
+  const double cpu0 = processCpuSeconds();
+  RunSummary sum;
+  const fs::path out(options_.out_dir);
+  const SlamConfig& cfg = config_;
+
+  // Everything that can be checked is checked before the first frame.
+  checkWritable(options_.out_dir);
+  auto source = detail::openFrameSource(options_.input, options_.ground_truth, cfg.input);
+  sum.input_kind = detail::toString(source->kind());
+  sum.frames_total = source->size();
+  if (options_.max_frames > 0 && sum.frames_total > 0)
+    sum.frames_total = std::min(sum.frames_total, options_.max_frames);
+  frontend::Frontend fe(cfg.frontend);
+  sum.matcher = fe.matcherName();
+
+  std::unique_ptr<detail::MapWorker> mapper;
+  const double map_voxel =
+      cfg.output.map_cloud_voxel > 0.0 ? cfg.output.map_cloud_voxel : 0.5 * cfg.mapping.resolution;
+  if (cfg.output.map) mapper = std::make_unique<detail::MapWorker>(cfg.mapping, map_voxel);
+
+  StageTimes app_times;
+  ProgressBar bar(sum.frames_total, "obm-map", "frames");
+  bar.setEnabled(options_.progress);
+  Timer since_start;
+  std::size_t n = 0;
+  Isometry3d T_up_sensor = Isometry3d::Identity();
+  struct FrameRow {
+    double quality, inlier_ratio, rmse;
+    std::size_t points_in, points_used;
+  };
+  std::vector<FrameRow> frame_rows;
+  while (options_.max_frames == 0 || n < options_.max_frames) {
+    if (options_.cancel && options_.cancel->load()) {
+      sum.interrupted = true;
+      break;
+    }
+    PointCloud cloud;
+    {
+      ScopedStage s(app_times, "read");
+      if (!source->next(cloud)) break;
+    }
+    if (n == 0) T_up_sensor = source->T_up_sensor();
+    const frontend::FrameResult r = fe.process(cloud);
+    frame_rows.push_back({r.match.quality, r.match.inlier_ratio, r.match.rmse,
+                          r.preprocess.points_in, r.preprocess.points_out});
+    ++n;
+    if (r.keyframe && mapper && r.keyframe_id % cfg.output.map_every == 0) {
+      ScopedStage s(app_times, "octomap_queue");
+      mapper->push(r.keyframe_id, std::move(cloud), T_up_sensor * r.T_world_sensor);
+    }
+    const auto& st = fe.stats();
+    std::ostringstream status;
+    status << "kf " << st.keyframes << " loops " << st.loops_accepted;
+    if (st.bridged > 0) status << " bridged " << st.bridged;
+    bar.update(n, status.str());
+  }
+  fe.finish();
+  const auto& st = fe.stats();
+  bar.finish("kf " + std::to_string(st.keyframes) + " loops " + std::to_string(st.loops_accepted));
+  sum.frames = n;
+  sum.stats = st;
+  const double process_s = since_start.seconds();
+  if (sum.interrupted)
+    OBM_LOG_WARN(kLog, "interrupted after " << n << " frames; writing what was processed");
+  if (source->readErrors() > 0)
+    OBM_LOG_WARN(kLog, source->readErrors() << " frame(s) could not be read and were bridged");
+
+  // --- outputs -----------------------------------------------------------------------------
+  Timer output_timer;
+  const std::vector<Isometry3d> traj = fe.trajectory();
+  const std::vector<double> stamps = fe.timestamps();
+  const io::KittiCalib* calib = source->kittiCalib();
+  auto file = [&](const std::string& name) {
+    const std::string p = (out / name).string();
+    sum.files.push_back(p);
+    return p;
+  };
+  io::writeTumTrajectory(file("trajectory_tum.txt"), io::stampPoses(traj, stamps));
+  io::writeKittiTrajectory(file("trajectory_kitti.txt"),
+                           calib ? io::lidarToCameraPoses(traj, calib->T_cam0_velo) : traj);
+  {
+    io::Trajectory kfs;
+    for (const auto& kf : fe.keyframes()) kfs.push_back({kf.timestamp, kf.T_world_sensor});
+    io::writeTumTrajectory(file("keyframes_tum.txt"), kfs);
+  }
+  backend::writeG2o(fe.graph(), file("graph.g2o"));
+  {
+    const auto statuses = fe.statuses();
+    const auto kf_of = fe.frameKeyframes();
+    std::ostringstream os;
+    os << "# frame,timestamp,status,keyframe_id,is_keyframe,quality,inlier_ratio,rmse_m,"
+          "points_in,points_used\n";
+    std::vector<bool> is_kf(traj.size(), false);
+    for (const auto& kf : fe.keyframes())
+      if (kf.frame_index < is_kf.size()) is_kf[kf.frame_index] = true;
+    os << std::setprecision(17);
+    for (std::size_t i = 0; i < traj.size(); ++i)
+      os << i << ',' << stamps[i] << ',' << frontend::toString(statuses[i]) << ',' << kf_of[i]
+         << ',' << (is_kf[i] ? 1 : 0) << ',' << std::setprecision(6) << frame_rows[i].quality << ','
+         << frame_rows[i].inlier_ratio << ',' << frame_rows[i].rmse << ','
+         << frame_rows[i].points_in << ',' << frame_rows[i].points_used << std::setprecision(17)
+         << '\n';
+    writeTextAtomically(file("frames.csv"), os.str());
+  }
+  {
+    std::ostringstream os;
+    os << "# from_keyframe,to_keyframe,accepted,quality,inlier_ratio,descriptor_distance,"
+          "correction_m,reason\n";
+    for (const auto& lc : fe.loops())
+      os << lc.from << ',' << lc.to << ',' << (lc.accepted ? 1 : 0) << ',' << lc.quality << ','
+         << lc.inlier_ratio << ',' << lc.descriptor_distance << ',' << lc.correction << ",\""
+         << lc.reason << "\"\n";
+    writeTextAtomically(file("loops.csv"), os.str());
+  }
+
+  // Ground truth and metrics.
+  const detail::GroundTruth gt = source->groundTruth(stamps, cfg.input.max_time_difference);
+  sum.ground_truth = gt.path;
+  std::vector<Isometry3d> gt_plot;  // ground truth in the estimate's world frame, for the picture
+  if (!gt.path.empty()) {
+    sum.metrics = computeMetrics(traj, gt, calib);
+    eval::PoseList est, ref;
+    for (std::size_t i = 0; i < traj.size() && i < gt.T_world_body.size(); ++i)
+      if (gt.T_world_body[i]) {
+        est.push_back(traj[i]);
+        ref.push_back(*gt.T_world_body[i]);
+      }
+    if (est.size() >= 3) {
+      const auto ate = eval::absoluteTrajectoryError(ref, est, eval::Alignment::SE3);
+      Isometry3d T_gt_est = Isometry3d::Identity();
+      T_gt_est.linear() = ate.alignment.R;
+      T_gt_est.translation() = ate.alignment.t;
+      for (const auto& T : ref) gt_plot.push_back(T_gt_est.inverse() * T);
+    }
+  }
+  {
+    nlohmann::json j;
+    const TrajectoryMetrics m = sum.metrics.value_or(TrajectoryMetrics{});
+    const bool have = sum.metrics.has_value();
+    j["t_err_percent"] = have ? num(m.t_err_percent) : nlohmann::json();
+    j["r_err_deg_per_100m"] = have ? num(m.r_err_deg_per_100m) : nlohmann::json();
+    j["ate_rmse_m"] = have ? num(m.ate_rmse_m) : nlohmann::json();
+    j["ate_mean_m"] = have ? num(m.ate_mean_m) : nlohmann::json();
+    j["ate_max_m"] = have ? num(m.ate_max_m) : nlohmann::json();
+    j["rpe_trans_rmse_m"] = have ? num(m.rpe_trans_rmse_m) : nlohmann::json();
+    j["rpe_rot_rmse_deg"] = have ? num(m.rpe_rot_rmse_deg) : nlohmann::json();
+    j["kitti_segments"] = m.kitti_segments;
+    j["frames_evaluated"] = m.frames_evaluated;
+    j["ground_truth_length_m"] = have ? num(m.length_m) : nlohmann::json();
+    j["evaluation_frame"] = have ? nlohmann::json(m.frame) : nlohmann::json();
+    j["ground_truth"] = gt.path.empty() ? nlohmann::json() : nlohmann::json(gt.path);
+    j["loops_accepted"] = st.loops_accepted;
+    j["loops_rejected"] = st.loops_rejected;
+    j["loop_candidates"] = st.loop_candidates;
+    j["frames"] = n;
+    j["keyframes"] = st.keyframes;
+    j["frames_tracked"] = st.tracked;
+    j["frames_recovered"] = st.recovered;
+    j["frames_bridged"] = st.bridged;
+    j["map_restarts"] = st.restarts;
+    j["unusable_sweeps"] = st.empty_sweeps;
+    j["read_errors"] = source->readErrors();
+    j["matcher"] = sum.matcher;
+    j["input"] = options_.input;
+    j["input_kind"] = sum.input_kind;
+    j["interrupted"] = sum.interrupted;
+    writeTextAtomically(file("metrics.json"), j.dump(2) + "\n");
+  }
+
+  // Map.
+  if (mapper) {
+    std::map<std::size_t, Isometry3d> final_poses;
+    for (const auto& kf : fe.keyframes()) final_poses[kf.id] = T_up_sensor * kf.T_world_sensor;
+    sum.map_rebuilt = mapper->finish(final_poses, cfg.output.map_rebuild_translation,
+                                     cfg.output.map_rebuild_rotation);
+    if (sum.map_rebuilt) OBM_LOG_INFO(kLog, "OctoMap rebuilt at the optimised keyframe poses");
+    Timer t;
+    if (mapper->inserted() > 0) {
+      mapper->map().writeBinary(file("map.bt"));
+      mapper->map().writeFull(file("map.ot"));
+      if (cfg.output.pictures) {
+        mapping::TopViewOptions tv;
+        tv.max_pixels = cfg.output.png_max_pixels;
+        tv.z_max = cfg.output.png_z_max;
+        mapper->map().writeTopViewPng(file("map_topview.png"), tv);
+      }
+    } else {
+      OBM_LOG_WARN(kLog, "no keyframe was integrated: no map written");
+    }
+    app_times.add("octomap", mapper->busyMs() + t.ms());
+  }
+  if (cfg.output.pictures && !traj.empty()) {
+    std::vector<std::pair<std::size_t, std::size_t>> loop_frames;
+    for (const auto& lc : fe.loops())
+      if (lc.accepted)
+        loop_frames.emplace_back(fe.keyframes()[lc.from].frame_index,
+                                 fe.keyframes()[lc.to].frame_index);
+    writeTrajectoryPng(file("trajectory_topview.png"), traj, gt_plot, loop_frames, T_up_sensor,
+                       cfg.output.png_max_pixels);
+  }
+  app_times.add("output", output_timer.ms());
+
+  // Timing (written last so it covers everything but itself).
+  sum.wall_s = wall.seconds();
+  sum.frames_per_second = sum.wall_s > 0.0 ? static_cast<double>(n) / sum.wall_s : 0.0;
+  for (const StageTimes* times : {&fe.times(), static_cast<const StageTimes*>(&app_times)})
+    for (const auto& [stage, e] : times->entries()) sum.stages_ms[stage] += e.total_ms;
+  for (const char* s : {"obmnet", "icp", "graph", "octomap"}) sum.stages_ms.emplace(s, 0.0);
+  {
+    nlohmann::json j;
+    j["frames"] = n;
+    j["keyframes"] = st.keyframes;
+    j["wall_s"] = sum.wall_s;
+    j["frames_per_second"] = sum.frames_per_second;
+    j["processing_s"] = process_s;
+    j["processing_frames_per_second"] = process_s > 0 ? static_cast<double>(n) / process_s : 0.0;
+    j["cpu_s"] = processCpuSeconds() - cpu0;
+    nlohmann::json stages;
+    for (const auto& [stage, ms] : sum.stages_ms) stages[stage] = ms;
+    j["stages_ms"] = stages;
+    nlohmann::json per_frame;
+    for (const auto& [stage, ms] : sum.stages_ms)
+      per_frame[stage] = n > 0 ? ms / static_cast<double>(n) : 0.0;
+    j["per_frame_ms"] = per_frame;
+    j["map_rebuilt"] = sum.map_rebuilt;
+    j["hardware_threads"] = std::thread::hardware_concurrency();
+    writeTextAtomically(file("timing.json"), j.dump(2) + "\n");
+  }
+  return sum;
+}
+
+std::string formatSummary(const RunSummary& s) {
+  std::ostringstream os;
+  os << "input           " << s.input_kind << ", " << s.frames << " frames"
+     << (s.interrupted ? " (interrupted)" : "") << "\n";
+  os << "matcher         " << s.matcher << "\n";
+  os << "keyframes       " << s.stats.keyframes << "\n";
+  os << "frames          " << s.stats.tracked << " tracked, " << s.stats.recovered << " recovered, "
+     << s.stats.bridged << " bridged, " << s.stats.restarts << " local-map restarts\n";
+  os << "loop closures   " << s.stats.loops_accepted << " accepted, " << s.stats.loops_rejected
+     << " rejected (" << s.stats.loop_searches << " searches)\n";
+  if (s.metrics) {
+    const auto& m = *s.metrics;
+    os << "ground truth    " << s.ground_truth << " (" << m.frames_evaluated << " frames, "
+       << fmt(m.length_m, 1) << " m)\n";
+    os << "KITTI metric    t_err " << fmt(m.t_err_percent) << " %, r_err "
+       << fmt(m.r_err_deg_per_100m, 4) << " deg/100m (" << m.kitti_segments << " segments)\n";
+    os << "ATE             rmse " << fmt(m.ate_rmse_m, 4) << " m, mean " << fmt(m.ate_mean_m, 4)
+       << " m, max " << fmt(m.ate_max_m, 4) << " m\n";
+    os << "RPE (1 frame)   " << fmt(m.rpe_trans_rmse_m, 4) << " m, " << fmt(m.rpe_rot_rmse_deg, 4)
+       << " deg\n";
+  } else {
+    os << "ground truth    none (no metrics)\n";
+  }
+  os << "speed           " << fmt(s.frames_per_second, 2) << " frames/s (" << fmt(s.wall_s, 1)
+     << " s wall)\n";
+  os << "stages [ms]    ";
+  for (const auto& [stage, ms] : s.stages_ms) os << " " << stage << " " << fmt(ms, 0);
+  os << "\n";
+  for (const auto& f : s.files) os << "wrote           " << f << "\n";
+  return os.str();
+}
+
+}  // namespace obm::slam

@@ -1,0 +1,301 @@
+#include "sources.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include "obm/core/errors.hpp"
+#include "obm/core/log.hpp"
+#include "obm/io/rawlog.hpp"
+#include "obm/io/rgbd.hpp"
+#include "obm/io/trajectory.hpp"
+
+namespace fs = std::filesystem;
+
+namespace obm::slam::detail {
+
+namespace {
+
+constexpr const char* kLog = "obm-map";
+
+/// Number of numbers on the first non-comment line of a trajectory file (12 = KITTI, 8 = TUM).
+std::size_t columnsOfFirstPose(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw IoError("cannot open ground-truth file '" + path + "'");
+  std::string line;
+  std::size_t line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    for (char& c : line)
+      if (c == ',') c = ' ';
+    std::istringstream is(line);
+    std::size_t n = 0;
+    std::string tok;
+    while (is >> tok) ++n;
+    if (n != 8 && n != 12)
+      throw FormatError(path, line_no,
+                        "expected a TUM (8 numbers) or KITTI (12 numbers) pose line, found " +
+                            std::to_string(n) + " fields");
+    return n;
+  }
+  throw FormatError(path, 0, "no pose line");
+}
+
+/// A trajectory file as per-frame ground truth: KITTI files are index-aligned, TUM files are
+/// associated by time stamp.
+GroundTruth groundTruthFromFile(const std::string& path, const std::vector<double>& timestamps,
+                                double max_dt) {
+  GroundTruth gt;
+  gt.path = path;
+  gt.T_world_body.assign(timestamps.size(), std::nullopt);
+  if (columnsOfFirstPose(path) == 12) {
+    const auto poses = io::readKittiTrajectory(path);
+    for (std::size_t i = 0; i < timestamps.size() && i < poses.size(); ++i)
+      gt.T_world_body[i] = poses[i];
+  } else {
+    const io::Trajectory traj = io::readTumTrajectory(path);
+    const auto matches = io::associateTimestamps(timestamps, io::timestampsOf(traj), max_dt);
+    for (const auto& m : matches) gt.T_world_body[m.first] = traj[m.second].T;
+  }
+  return gt;
+}
+
+// --- KITTI -----------------------------------------------------------------------------------
+
+class KittiSource : public FrameSource {
+ public:
+  KittiSource(const std::string& dir, const std::string& gt) : seq_(dir, gt) {}
+  InputKind kind() const override { return InputKind::Kitti; }
+  std::size_t size() const override { return seq_.size(); }
+  bool next(PointCloud& cloud) override {
+    if (i_ >= seq_.size()) return false;
+    try {
+      cloud = seq_.scan(i_);
+    } catch (const Error& e) {
+      // A corrupt scan file is a counted skip: the front-end bridges an empty sweep.
+      ++read_errors_;
+      OBM_LOG_WARN(kLog, "frame " << i_ << ": " << e.what() << " (skipped)");
+      cloud = PointCloud();
+      cloud.frame_id = "velodyne";
+    }
+    cloud.timestamp = seq_.timestamp(i_);
+    ++i_;
+    return true;
+  }
+  const io::KittiCalib* kittiCalib() const override { return &seq_.calib(); }
+  GroundTruth groundTruth(const std::vector<double>& timestamps, double) const override {
+    GroundTruth gt;
+    gt.T_world_body.assign(timestamps.size(), std::nullopt);
+    if (!seq_.hasGroundTruth()) return gt;
+    gt.path = seq_.groundTruthPath();
+    const auto& lidar = seq_.groundTruthLidar();
+    for (std::size_t i = 0; i < timestamps.size() && i < lidar.size(); ++i)
+      gt.T_world_body[i] = lidar[i];
+    return gt;
+  }
+
+ private:
+  io::KittiSequence seq_;
+  std::size_t i_ = 0;
+};
+
+// --- RGB-D -----------------------------------------------------------------------------------
+
+class RgbdSource : public FrameSource {
+ public:
+  RgbdSource(io::RgbdSequence seq, InputKind kind, const InputParams& p)
+      : seq_(std::move(seq)), kind_(kind), p_(p) {
+    // TUM / ICL-NUIM layouts have no intrinsics file of their own; a folder that carries Open3D's
+    // (as obm-sim writes them for other image sizes) overrides the layout's defaults.
+    if (kind == InputKind::TumRgbd || kind == InputKind::IclNuim)
+      for (const char* name : {"camera_intrinsic.json", "camera_primesense.json"}) {
+        const fs::path f = fs::path(seq_.directory()) / name;
+        if (!fs::is_regular_file(f)) continue;
+        seq_.setIntrinsics(io::readOpen3dIntrinsics(f.string()));
+        OBM_LOG_INFO(kLog, "intrinsics from " << f.string());
+        break;
+      }
+  }
+  InputKind kind() const override { return kind_; }
+  std::size_t size() const override { return seq_.size(); }
+  bool next(PointCloud& cloud) override {
+    if (i_ >= seq_.size()) return false;
+    const double max_depth =
+        p_.depth_max > 0.0 ? p_.depth_max : std::numeric_limits<double>::infinity();
+    try {
+      cloud = seq_.cloud(i_, p_.depth_min, max_depth, p_.rgbd_stride, false);
+    } catch (const Error& e) {
+      ++read_errors_;
+      OBM_LOG_WARN(kLog, "frame " << i_ << ": " << e.what() << " (skipped)");
+      cloud = PointCloud();
+      cloud.frame_id = "camera";
+    }
+    cloud.timestamp = seq_.frame(i_).timestamp;
+    ++i_;
+    return true;
+  }
+  Isometry3d T_up_sensor() const override {
+    Isometry3d T = Isometry3d::Identity();
+    T.linear() = io::T_mrptCamera_optical().linear();
+    return T;
+  }
+  GroundTruth groundTruth(const std::vector<double>& timestamps, double) const override {
+    GroundTruth gt;
+    gt.T_world_body.assign(timestamps.size(), std::nullopt);
+    bool any = false;
+    for (std::size_t i = 0; i < timestamps.size() && i < seq_.size(); ++i)
+      if (seq_.frame(i).has_pose) {
+        gt.T_world_body[i] = seq_.frame(i).T_world_camera;
+        any = true;
+      }
+    if (any) gt.path = seq_.directory() + " (ground truth of the layout)";
+    return gt;
+  }
+
+ private:
+  io::RgbdSequence seq_;
+  InputKind kind_;
+  InputParams p_;
+  std::size_t i_ = 0;
+};
+
+// --- rawlog ----------------------------------------------------------------------------------
+
+class RawlogSource : public FrameSource {
+ public:
+  RawlogSource(const std::string& path, std::string gt, const InputParams& p)
+      : path_(path), gt_(std::move(gt)), p_(p), reader_(path, readOptions(p)) {
+    if (gt_.empty()) {
+      const fs::path next_to = fs::path(path).parent_path() / "groundtruth.txt";
+      if (fs::is_regular_file(next_to)) gt_ = next_to.string();
+    }
+  }
+  InputKind kind() const override { return InputKind::Rawlog; }
+  std::size_t size() const override { return 0; }
+  bool next(PointCloud& cloud) override {
+    if (ended_) return false;
+    io::RawlogObservation obs;
+    while (true) {
+      try {
+        if (!reader_.next(obs)) {
+          ended_ = true;
+          return false;
+        }
+      } catch (const FormatError& e) {
+        // A truncated or corrupt rawlog cannot be read past the damage: stop there.
+        ++read_errors_;
+        OBM_LOG_WARN(kLog, e.what() << " — stopping at the last readable observation");
+        ended_ = true;
+        return false;
+      }
+      if (!p_.sensor_label.empty() && obs.sensor_label != p_.sensor_label) continue;
+      break;
+    }
+    if (first_) {
+      first_ = false;
+      if (obs.has_depth) {
+        // Map "up" for a depth camera: the first camera's x-forward / z-up frame.
+        up_ = Isometry3d::Identity();
+        up_.linear() = (io::T_mrptCamera_optical() * obs.T_vehicle_camera.inverse()).linear();
+      }
+    }
+    cloud = std::move(obs.cloud);
+    cloud.timestamp = obs.timestamp;
+    return true;
+  }
+  Isometry3d T_up_sensor() const override { return up_; }
+  GroundTruth groundTruth(const std::vector<double>& timestamps, double max_dt) const override {
+    if (gt_.empty()) {
+      GroundTruth gt;
+      gt.T_world_body.assign(timestamps.size(), std::nullopt);
+      return gt;
+    }
+    return groundTruthFromFile(gt_, timestamps, max_dt);
+  }
+
+ private:
+  static io::RawlogReadOptions readOptions(const InputParams& p) {
+    io::RawlogReadOptions o;
+    o.velodyne_min_range = p.velodyne_min_range;
+    if (p.depth_max > 0.0) o.depth_max = p.depth_max;
+    o.depth_min = p.depth_min;
+    return o;
+  }
+  std::string path_, gt_;
+  InputParams p_;
+  io::RawlogReader reader_;
+  bool ended_ = false, first_ = true;
+  Isometry3d up_ = Isometry3d::Identity();
+};
+
+}  // namespace
+
+std::string toString(InputKind kind) {
+  switch (kind) {
+    case InputKind::Kitti:
+      return "kitti";
+    case InputKind::TumRgbd:
+      return "tum-rgbd";
+    case InputKind::IclNuim:
+      return "icl-nuim";
+    case InputKind::SevenScenes:
+      return "7scenes";
+    case InputKind::Redwood:
+      return "redwood";
+    case InputKind::Rawlog:
+      return "rawlog";
+  }
+  return "?";
+}
+
+InputKind detectInputKind(const std::string& input) {
+  const fs::path p(input);
+  if (!fs::exists(p)) throw IoError("input '" + input + "' does not exist");
+  if (fs::is_regular_file(p)) {
+    if (p.extension() == ".rawlog" || p.extension() == ".gz") return InputKind::Rawlog;
+    throw IoError("input '" + input + "' is a file but not an MRPT .rawlog");
+  }
+  if (fs::is_directory(p / "velodyne")) return InputKind::Kitti;
+  bool icl_gt = false;
+  for (const auto& e : fs::directory_iterator(p))
+    if (e.path().extension() == ".freiburg") icl_gt = true;
+  if (fs::is_regular_file(p / "associations.txt") || icl_gt) return InputKind::IclNuim;
+  if (fs::is_regular_file(p / "depth.txt")) return InputKind::TumRgbd;
+  if (fs::is_regular_file(p / "frame-000000.depth.png")) return InputKind::SevenScenes;
+  if (fs::is_directory(p / "depth")) return InputKind::Redwood;
+  throw IoError("input '" + input +
+                "': no known layout (velodyne/ for KITTI; depth.txt, associations.txt, "
+                "frame-*.depth.png or depth/ for RGB-D; or an MRPT .rawlog file)");
+}
+
+std::unique_ptr<FrameSource> openFrameSource(const std::string& input,
+                                             const std::string& ground_truth,
+                                             const InputParams& params) {
+  if (!ground_truth.empty() && !fs::is_regular_file(ground_truth))
+    throw IoError("ground-truth file '" + ground_truth + "' does not exist");
+  const InputKind kind = detectInputKind(input);
+  io::RgbdSequenceOptions ro;
+  ro.max_time_difference = params.max_time_difference;
+  ro.groundtruth_path = ground_truth;
+  switch (kind) {
+    case InputKind::Kitti:
+      return std::make_unique<KittiSource>(input, ground_truth);
+    case InputKind::TumRgbd:
+      return std::make_unique<RgbdSource>(io::RgbdSequence::openTum(input, ro), kind, params);
+    case InputKind::IclNuim:
+      return std::make_unique<RgbdSource>(io::RgbdSequence::openIclNuim(input, ro), kind, params);
+    case InputKind::SevenScenes:
+      return std::make_unique<RgbdSource>(io::RgbdSequence::open7Scenes(input, ro), kind, params);
+    case InputKind::Redwood:
+      return std::make_unique<RgbdSource>(io::RgbdSequence::openRedwood(input, ro), kind, params);
+    case InputKind::Rawlog:
+      return std::make_unique<RawlogSource>(input, ground_truth, params);
+  }
+  throw IoError("input '" + input + "': unsupported layout");
+}
+
+}  // namespace obm::slam::detail
