@@ -78,7 +78,11 @@ output:
 )";
 
 std::string simulate(const char* yaml, const std::string& name) {
-  const std::string dir = test::scratchDir("slam_" + name) + "/seq";
+  // ctest runs every test in its own process, possibly in parallel: each one simulates into a
+  // folder of its own, or one process would delete the sequence another is reading.
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const std::string dir =
+      test::scratchDir("slam_" + name + "_" + (info ? info->name() : "shared")) + "/seq";
   sim::SequenceSimulator s(sim::SimConfig::load(ConfigNode::fromString(yaml, name)));
   sim::SimOptions o;
   o.out_dir = dir;
