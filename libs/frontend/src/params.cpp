@@ -76,14 +76,17 @@ void LocalMapParams::validate() const {
   require(keyframes >= 1, "keyframes", "must be >= 1");
   require(finite(voxel) && voxel >= 0.0, "voxel", "must be >= 0 [m] (0 = off)");
   require(finite(radius) && radius > 0.0, "radius", "must be > 0 [m]");
+  require(rebuild_every >= 1, "rebuild_every", "must be >= 1");
 }
 
 LocalMapParams LocalMapParams::load(const ConfigNode& node) {
-  node.checkKeys({"keyframes", "voxel", "radius"});
+  node.checkKeys({"keyframes", "voxel", "radius", "async", "rebuild_every"});
   LocalMapParams p;
   node.get("keyframes", p.keyframes);
   node.get("voxel", p.voxel);
   node.get("radius", p.radius);
+  node.get("async", p.async);
+  node.get("rebuild_every", p.rebuild_every);
   validateAt(node, [&] { p.validate(); });
   return p;
 }

@@ -70,6 +70,8 @@ bool MapWorker::finish(const std::map<std::size_t, Isometry3d>& final_poses, dou
     const auto it = final_poses.find(ids_[i]);
     poses[i] = it != final_poses.end() ? it->second : inserted_at_[i];
     const Isometry3d d = inserted_at_[i].inverse() * poses[i];
+    max_shift_ = std::max(max_shift_, d.translation().norm());
+    max_shift_rot_ = std::max(max_shift_rot_, rotationAngle(d.linear()));
     if (d.translation().norm() > max_translation || rotationAngle(d.linear()) > max_rotation)
       rebuild = true;
   }

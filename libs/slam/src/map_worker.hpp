@@ -34,6 +34,10 @@ class MapWorker {
   /// rebuilt. Rethrows an exception the worker caught.
   bool finish(const std::map<std::size_t, Isometry3d>& final_poses, double max_translation,
               double max_rotation);
+  /// Largest translation [m] / rotation [rad] between a keyframe's insertion pose and its final
+  /// pose (after finish()).
+  double maxShift() const { return max_shift_; }
+  double maxShiftRotation() const { return max_shift_rot_; }
 
   mapping::OccupancyMap& map() { return map_; }
   /// [ms] busy time of the worker (insertions) plus the rebuild.
@@ -62,6 +66,7 @@ class MapWorker {
   std::vector<PointCloud> clouds_;
   std::vector<Isometry3d> inserted_at_;
   double busy_ms_ = 0.0;
+  double max_shift_ = 0.0, max_shift_rot_ = 0.0;
 };
 
 }  // namespace obm::slam::detail

@@ -225,12 +225,17 @@ RunSummary MappingApp::run() {
   }
   {
     std::ostringstream os;
-    os << "# from_keyframe,to_keyframe,accepted,quality,inlier_ratio,descriptor_distance,"
-          "correction_m,reason\n";
-    for (const auto& lc : fe.loops())
-      os << lc.from << ',' << lc.to << ',' << (lc.accepted ? 1 : 0) << ',' << lc.quality << ','
-         << lc.inlier_ratio << ',' << lc.descriptor_distance << ',' << lc.correction << ",\""
-         << lc.reason << "\"\n";
+    os << "# from_keyframe,to_keyframe,from_frame,to_frame,accepted,quality,inlier_ratio,"
+          "descriptor_distance,correction_m,tx,ty,tz,qx,qy,qz,qw,reason\n";
+    for (const auto& lc : fe.loops()) {
+      const Eigen::Quaterniond q(lc.T_from_to.linear());
+      const Eigen::Vector3d t = lc.T_from_to.translation();
+      os << lc.from << ',' << lc.to << ',' << fe.keyframes()[lc.from].frame_index << ','
+         << fe.keyframes()[lc.to].frame_index << ',' << (lc.accepted ? 1 : 0) << ',' << lc.quality
+         << ',' << lc.inlier_ratio << ',' << lc.descriptor_distance << ',' << lc.correction << ','
+         << t.x() << ',' << t.y() << ',' << t.z() << ',' << q.x() << ',' << q.y() << ',' << q.z()
+         << ',' << q.w() << ",\"" << lc.reason << "\"\n";
+    }
     writeTextAtomically(file("loops.csv"), os.str());
   }
 
@@ -289,12 +294,18 @@ RunSummary MappingApp::run() {
   }
 
   // Map.
+  double map_shift = 0.0, map_shift_deg = 0.0;
   if (mapper) {
     std::map<std::size_t, Isometry3d> final_poses;
     for (const auto& kf : fe.keyframes()) final_poses[kf.id] = T_up_sensor * kf.T_world_sensor;
     sum.map_rebuilt = mapper->finish(final_poses, cfg.output.map_rebuild_translation,
                                      cfg.output.map_rebuild_rotation);
-    if (sum.map_rebuilt) OBM_LOG_INFO(kLog, "OctoMap rebuilt at the optimised keyframe poses");
+    map_shift = mapper->maxShift();
+    map_shift_deg = mapper->maxShiftRotation() * kRadToDeg;
+    if (sum.map_rebuilt)
+      OBM_LOG_INFO(kLog, "OctoMap rebuilt at the optimised keyframe poses (a keyframe moved "
+                             << map_shift << " m / " << map_shift_deg
+                             << " deg after it was integrated)");
     Timer t;
     if (mapper->inserted() > 0) {
       mapper->map().writeBinary(file("map.bt"));
@@ -344,6 +355,8 @@ RunSummary MappingApp::run() {
       per_frame[stage] = n > 0 ? ms / static_cast<double>(n) : 0.0;
     j["per_frame_ms"] = per_frame;
     j["map_rebuilt"] = sum.map_rebuilt;
+    j["map_max_keyframe_shift_m"] = map_shift;
+    j["map_max_keyframe_shift_deg"] = map_shift_deg;
     j["hardware_threads"] = std::thread::hardware_concurrency();
     writeTextAtomically(file("timing.json"), j.dump(2) + "\n");
   }

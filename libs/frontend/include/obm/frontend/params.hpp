@@ -52,6 +52,13 @@ struct LocalMapParams {
   /// [m] voxel grid of each keyframe's stored cloud and of the merged map (one centroid per voxel).
   double voxel = 0.3;
   double radius = 100.0;  ///< [m] map points farther than this from the newest keyframe are dropped
+  /// Rebuild the map in a worker thread while tracking goes on; the new map is used from the
+  /// third frame after the keyframe (a fixed frame: results do not depend on timing). After a
+  /// loop closure or a restart the map is rebuilt at once.
+  bool async = true;
+  /// Rebuild the map at every n-th keyframe only (>= 1): building the KD-tree and normals is the
+  /// front-end's largest cost, and a map reaching 100 m stays good for a few keyframes.
+  std::size_t rebuild_every = 1;
 
   static LocalMapParams load(const ConfigNode& node);
   void validate() const;

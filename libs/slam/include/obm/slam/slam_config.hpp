@@ -44,8 +44,8 @@ struct OutputParams {
   double map_cloud_voxel = 0.0;
   /// Keyframes go into the OctoMap (in a worker thread) as soon as they are made; if the final
   /// optimisation then moved any of them by more than these, the map is rebuilt at the final poses.
-  double map_rebuild_translation = 0.05;           ///< [m]
-  double map_rebuild_rotation = 0.05 * kDegToRad;  ///< [rad] (YAML `_deg`)
+  double map_rebuild_translation = 0.1;           ///< [m]
+  double map_rebuild_rotation = 0.1 * kDegToRad;  ///< [rad] (YAML `_deg`)
   /// Top view: ignore voxels above this height in the map frame [m] (ceilings); none by default.
   double png_z_max = 1e30;
   int png_max_pixels = 2048;  ///< [px] largest side of the pictures
