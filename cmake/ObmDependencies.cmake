@@ -24,3 +24,16 @@ endif()
 if(OBM_WITH_OPEN3D)
   find_package(Open3D QUIET)
 endif()
+
+# tcmalloc (Debian libtcmalloc-minimal4 ships only the versioned .so): applications only, and not
+# under the sanitizers, which bring their own allocator.
+set(OBM_TCMALLOC_LIBRARY "")
+if(OBM_WITH_TCMALLOC AND NOT OBM_SANITIZE)
+  find_library(OBM_TCMALLOC_FOUND NAMES tcmalloc_minimal libtcmalloc_minimal.so.4)
+  if(OBM_TCMALLOC_FOUND)
+    set(OBM_TCMALLOC_LIBRARY ${OBM_TCMALLOC_FOUND})
+    message(STATUS "obmslam: applications linked with ${OBM_TCMALLOC_FOUND}")
+  else()
+    message(STATUS "obmslam: tcmalloc_minimal not found (libtcmalloc-minimal4); glibc malloc")
+  endif()
+endif()

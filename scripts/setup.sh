@@ -13,6 +13,7 @@ PACKAGES=(
   # libraries
   libeigen3-dev libmrpt-dev libtorch-dev libceres-dev liboctomap-dev libgtest-dev libgmock-dev
   libembree-dev libhdf5-dev libnanoflann-dev libyaml-cpp-dev nlohmann-json3-dev libpng-dev libcli11-dev
+  libtcmalloc-minimal4  # allocator of the applications (LibTorch's large temporaries)
   libopen3d-dev
   # MRPT tools and datasets (graph-slam, icp-slam peers; /usr/share/mrpt/datasets/*.rawlog test data)
   mrpt-apps mrpt-common

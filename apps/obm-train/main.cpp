@@ -6,8 +6,10 @@
 #include <csignal>
 #include <cstdio>
 #include <iostream>
+#include <memory>
 
 #include "../common/object_source.hpp"
+#include "../common/scan_source.hpp"
 #include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
@@ -39,7 +41,7 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads, "intra-op threads (default: train.threads of the config)");
   app.add_option("--epochs", epochs, "override train.epochs");
   app.add_option("--max-hours", max_hours, "override train.max_hours (0 = no limit)");
-  app.add_option("--data", data_dir, "override data.dir (mesh folder)");
+  app.add_option("--data", data_dir, "override data.dir (mesh folder, or the folder of the KITTI sequences)");
   app.add_option("--measure", measure, "only measure training throughput on N batches and exit");
   app.add_option(
       "--overfit", overfit,
@@ -59,15 +61,34 @@ int main(int argc, char** argv) {
     if (epochs > 0) cfg.epochs = epochs;
     if (max_hours >= 0) cfg.max_hours = max_hours;
     if (batch > 0) cfg.batch_size = batch;
-    auto src = obm::apps::ObjectSourceConfig::load(root.child("data"));
-    if (!data_dir.empty()) src.dir = data_dir;
     torch::set_num_threads(cfg.threads);
 
-    auto set = obm::apps::loadObjectSet(src);
-    std::fprintf(stderr,
-                 "[obm-train] objects: %zu train, %zu val, %zu test (test never used here)\n",
-                 set.train.size(), set.val.size(), set.test.size());
-    obm::obmnet::Trainer trainer(cfg, std::move(set.train), std::move(set.val), out_dir);
+    // The data: meshes (object-level protocols) or LiDAR scan pairs (`source: kitti`).
+    const auto data = root.child("data");
+    std::string source = "cgal";
+    data.get("source", source);
+    std::unique_ptr<obm::obmnet::Trainer> trainer_ptr;
+    if (source == "kitti") {
+      auto scans = obm::apps::ScanSourceConfig::load(data);
+      if (!data_dir.empty()) scans.dir = data_dir;
+      const int n_points = cfg.protocol.num_points;
+      auto sampler = obm::apps::scanPairSampler(scans, n_points);
+      auto val = obm::apps::scanValidationPairs(scans, n_points, cfg.val_pairs, cfg.seed);
+      std::fprintf(stderr, "[obm-train] scans: %zu validation pairs (i, i+%d), %d points each\n",
+                   val.size(), scans.frame_gap, n_points);
+      trainer_ptr = std::make_unique<obm::obmnet::Trainer>(cfg, std::move(sampler), std::move(val),
+                                                           out_dir);
+    } else {
+      auto src = obm::apps::ObjectSourceConfig::load(data);
+      if (!data_dir.empty()) src.dir = data_dir;
+      auto set = obm::apps::loadObjectSet(src);
+      std::fprintf(stderr,
+                   "[obm-train] objects: %zu train, %zu val, %zu test (test never used here)\n",
+                   set.train.size(), set.val.size(), set.test.size());
+      trainer_ptr = std::make_unique<obm::obmnet::Trainer>(cfg, std::move(set.train),
+                                                           std::move(set.val), out_dir);
+    }
+    auto& trainer = *trainer_ptr;
     if (overfit > 0) {
       const auto rows =
           trainer.overfitOneBatch(overfit, 5, overfit_epoch > 0 ? overfit_epoch : cfg.epochs);

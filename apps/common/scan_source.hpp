@@ -1,0 +1,46 @@
+#pragma once
+/// \file scan_source.hpp
+/// LiDAR scan pairs for obm-train (RECIPE.md "KITTI odometry": pairs (i, i + frame_gap), each scan
+/// on a voxel grid, then N random points): the `data:` map of a config with `source: kitti`.
+/// The sequences are KITTI odometry folders — real ones or the ones obm-sim writes. Training never
+/// reads their poses; validation scores against them, so validation sequences need ground truth.
+#include <string>
+#include <vector>
+
+#include "obm/obmnet/trainer.hpp"
+
+namespace obm {
+class ConfigNode;
+}
+
+namespace obm::apps {
+
+struct ScanSourceConfig {
+  /// Folder holding the sequences: a sequence name `s` is found as `dir/sequences/s` (the devkit
+  /// layout), `dir/s`, or `s` itself when it is a path. Relative paths are taken from the
+  /// working directory.
+  std::string dir;
+  std::vector<std::string> sequences;      ///< training sequences
+  std::vector<std::string> val_sequences;  ///< validation sequences (need ground truth)
+  int frame_gap = 10;                      ///< pairs (i, i + frame_gap)
+  double voxel = 0.3;                      ///< [m] voxel grid before the random N-point sample
+  double min_range = 0.0;                  ///< [m] returns closer than this are dropped (0 = keep)
+  double max_range = 0.0;                  ///< [m] returns farther than this are dropped (0 = keep)
+
+  /// Reads the `data:` map (source must be `kitti`); unknown keys are errors naming the file.
+  static ScanSourceConfig load(const ConfigNode& node);
+};
+
+/// Training pairs: a random sequence (weighted by its number of pairs), a random i, the pair
+/// (i + gap → i), both scans cropped, voxelised and sampled to `num_points` by makeScanPair.
+/// Ground truth, when the sequence has it, is only attached for reporting. Throws IoError /
+/// FormatError naming the folder when a sequence cannot be opened or is shorter than the gap.
+obmnet::PairSampler scanPairSampler(const ScanSourceConfig& config, int num_points);
+
+/// `n` fixed validation pairs, evenly spread over the validation sequences, from `seed`. Throws
+/// IoError naming the folder when a validation sequence has no ground truth.
+std::vector<obmnet::RegistrationPair> scanValidationPairs(const ScanSourceConfig& config,
+                                                          int num_points, int n,
+                                                          std::uint64_t seed);
+
+}  // namespace obm::apps
