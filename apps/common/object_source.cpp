@@ -8,6 +8,7 @@
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
 #include "obm/io/mesh_io.hpp"
+#include "obm/io/modelnet.hpp"
 
 namespace fs = std::filesystem;
 
@@ -15,11 +16,16 @@ namespace obm::apps {
 
 ObjectSourceConfig ObjectSourceConfig::load(const ConfigNode& node) {
   ObjectSourceConfig c;
-  node.checkKeys({"source", "dir", "objects"});
+  node.checkKeys({"source", "dir", "objects", "unseen_categories"});
   node.get("source", c.source);
   node.get("dir", c.dir);
-  if (c.source != "cgal" && c.source != "meshes")
-    throw ConfigError(node.where("source") + ": unknown source '" + c.source + "' (cgal, meshes)");
+  node.get("unseen_categories", c.unseen_categories);
+  if (c.source != "cgal" && c.source != "meshes" && c.source != "modelnet40")
+    throw ConfigError(node.where("source") + ": unknown source '" + c.source +
+                      "' (cgal, meshes, modelnet40; LiDAR scans: kitti)");
+  if (c.source == "modelnet40" && c.dir.empty())
+    throw ConfigError(node.where("dir") +
+                      ": source modelnet40 needs the folder of modelnet40_ply_hdf5_2048");
   c.objects = obmnet::ObjectSetOptions::load(node.child("objects"));
   return c;
 }
@@ -34,7 +40,52 @@ std::string defaultCgalDir() {
 }
 }  // namespace
 
+namespace {
+
+/// ModelNet40 HDF5: shapes keep their first `keep_points` points (as RIENet keeps 1024 of 2048).
+obmnet::ObjectSet loadModelNet40(const ObjectSourceConfig& config) {
+  const auto& o = config.objects;
+  const auto names = io::readModelNetShapeNames(config.dir);
+  auto prepare = [&](io::LabeledCloud& s, const std::string& name) {
+    if (s.cloud.size() < static_cast<std::size_t>(o.keep_points))
+      throw FormatError(config.dir, 0,
+                        name + " has " + std::to_string(s.cloud.size()) +
+                            " points, fewer than objects.keep_points = " +
+                            std::to_string(o.keep_points));
+    s.cloud.points.resize(static_cast<std::size_t>(o.keep_points));
+    if (!s.cloud.intensity.empty()) s.cloud.intensity.resize(s.cloud.points.size());
+    if (!s.cloud.colors.empty()) s.cloud.colors.resize(s.cloud.points.size());
+    s.cloud.frame_id = name;
+  };
+  auto labelName = [&](int label) {
+    return label >= 0 && label < static_cast<int>(names.size()) ? names[static_cast<std::size_t>(label)]
+                                                              : std::to_string(label);
+  };
+  obmnet::ObjectSet set;
+  auto train = io::readModelNet40(config.dir, io::ModelNetSplit::Train);
+  for (std::size_t i = 0; i < train.size(); ++i) {
+    if (config.unseen_categories && train[i].label >= 20) continue;
+    const std::string name = "train_" + labelName(train[i].label) + "_" + std::to_string(i);
+    prepare(train[i], name);
+    // The validation share is drawn from the training files by name hash (no test_fraction here:
+    // the test group is the test files).
+    const bool val = obmnet::splitForName(name, o.val_fraction, 0.0) == obmnet::Split::Validation;
+    (val ? set.val : set.train).push_back(std::move(train[i].cloud));
+  }
+  auto test = io::readModelNet40(config.dir, io::ModelNetSplit::Test);
+  for (std::size_t i = 0; i < test.size(); ++i) {
+    if (config.unseen_categories && test[i].label < 20) continue;
+    prepare(test[i], "test_" + labelName(test[i].label) + "_" + std::to_string(i));
+    set.test.push_back(std::move(test[i].cloud));
+  }
+  if (set.train.empty()) throw IoError(config.dir + ": no ModelNet40 training shape");
+  return set;
+}
+
+}  // namespace
+
 obmnet::ObjectSet loadObjectSet(const ObjectSourceConfig& config) {
+  if (config.source == "modelnet40") return loadModelNet40(config);
   std::string dir = config.dir;
   if (dir.empty() && config.source == "cgal") dir = defaultCgalDir();
   if (!fs::is_directory(dir))
