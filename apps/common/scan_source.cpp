@@ -86,9 +86,34 @@ obmnet::RegistrationPair makePairAt(const io::KittiSequence& s, std::size_t i,
   return pair;
 }
 
+
+/// The self-pair of the curriculum: one sampled scan and a made-up motion of it.
+obmnet::RegistrationPair makeSelfPair(const io::KittiSequence& s, std::size_t i,
+                                      const ScanSourceConfig& c, int num_points,
+                                      std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const double kDeg = 3.14159265358979323846 / 180.0;
+  Isometry3d T_target_source = Isometry3d::Identity();
+  T_target_source.linear() =
+      (Eigen::AngleAxisd(10.0 * kDeg * u(rng), Eigen::Vector3d::UnitZ()) *
+       Eigen::AngleAxisd(1.0 * kDeg * u(rng), Eigen::Vector3d::UnitY()) *
+       Eigen::AngleAxisd(1.0 * kDeg * u(rng), Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
+  T_target_source.translation() = Eigen::Vector3d(10.0 * u(rng), 10.0 * u(rng), 0.2 * u(rng));
+  obmnet::RegistrationPair pair;
+  pair.target = randomSubset(voxelDownsample(loadScan(s, i, c), c.voxel),
+                             static_cast<std::size_t>(num_points), rng);
+  pair.source = pair.target.transformed(T_target_source.inverse(), pair.target.frame_id);
+  pair.T_target_source = T_target_source;
+  pair.overlap = 1.0;
+  pair.name = s.name() + ":" + std::to_string(i) + " (self)";
+  return pair;
+}
+
 }  // namespace
 
-obmnet::PairSampler scanPairSampler(const ScanSourceConfig& config, int num_points) {
+obmnet::PairSampler scanPairSampler(const ScanSourceConfig& config, int num_points,
+                                    int curriculum_epochs) {
   auto seqs = openAll(config, config.sequences);
   std::vector<double> counts;
   std::size_t total = 0;
@@ -99,12 +124,18 @@ obmnet::PairSampler scanPairSampler(const ScanSourceConfig& config, int num_poin
   }
   OBM_LOG_INFO("obm-train", "scan pairs: " << seqs.size() << " training sequence(s), " << total
                                            << " pairs (i, i+" << config.frame_gap << ")");
-  return [seqs, counts, config, num_points](std::mt19937_64& rng, int /*epoch*/) {
+  return [seqs, counts, config, num_points, curriculum_epochs](std::mt19937_64& rng, int epoch) {
     std::discrete_distribution<std::size_t> pick(counts.begin(), counts.end());
     const auto& s = *seqs[pick(rng)];
     std::uniform_int_distribution<std::size_t> at(0, s.size() - 1 -
                                                          static_cast<std::size_t>(config.frame_gap));
-    return makePairAt(s, at(rng), config, num_points, rng);
+    const std::size_t i = at(rng);
+    if (curriculum_epochs > 0 && epoch <= curriculum_epochs) {
+      const double p_self = 1.0 - static_cast<double>(epoch - 1) / curriculum_epochs;
+      if (std::uniform_real_distribution<double>(0.0, 1.0)(rng) < p_self)
+        return makeSelfPair(s, i, config, num_points, rng);
+    }
+    return makePairAt(s, i, config, num_points, rng);
   };
 }
 

@@ -35,7 +35,15 @@ struct ScanSourceConfig {
 /// (i + gap → i), both scans cropped, voxelised and sampled to `num_points` by makeScanPair.
 /// Ground truth, when the sequence has it, is only attached for reporting. Throws IoError /
 /// FormatError naming the folder when a sequence cannot be opened or is shorter than the gap.
-obmnet::PairSampler scanPairSampler(const ScanSourceConfig& config, int num_points);
+///
+/// Curriculum (`curriculum_epochs` > 0), the scan counterpart of the object curriculum: two
+/// sweeps sampled independently share no point, and a fresh network cannot match them; the same
+/// sampled points moved by a random motion can be matched at once. In epoch e a pair is such a
+/// self-pair with probability 1 − (e − 1)/curriculum_epochs (the motion: yaw ≤ 10°, roll/pitch
+/// ≤ 1°, ≤ 10 m horizontally, like (i, i+10) at urban speed), else a real (i, i + gap) pair.
+/// No ground truth is used either way: the self-pair's motion is made up, not measured.
+obmnet::PairSampler scanPairSampler(const ScanSourceConfig& config, int num_points,
+                                    int curriculum_epochs = 0);
 
 /// `n` fixed validation pairs, evenly spread over the validation sequences, from `seed`. Throws
 /// IoError naming the folder when a validation sequence has no ground truth.

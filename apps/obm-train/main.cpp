@@ -72,7 +72,7 @@ int main(int argc, char** argv) {
       auto scans = obm::apps::ScanSourceConfig::load(data);
       if (!data_dir.empty()) scans.dir = data_dir;
       const int n_points = cfg.protocol.num_points;
-      auto sampler = obm::apps::scanPairSampler(scans, n_points);
+      auto sampler = obm::apps::scanPairSampler(scans, n_points, cfg.curriculum_epochs);
       auto val = obm::apps::scanValidationPairs(scans, n_points, cfg.val_pairs, cfg.seed);
       std::fprintf(stderr, "[obm-train] scans: %zu validation pairs (i, i+%d), %d points each\n",
                    val.size(), scans.frame_gap, n_points);
