@@ -48,18 +48,19 @@ obmnet::ObjectSet loadModelNet40(const ObjectSourceConfig& config) {
   const auto names = io::readModelNetShapeNames(config.dir);
   auto prepare = [&](io::LabeledCloud& s, const std::string& name) {
     if (s.cloud.size() < static_cast<std::size_t>(o.keep_points))
-      throw FormatError(config.dir, 0,
-                        name + " has " + std::to_string(s.cloud.size()) +
-                            " points, fewer than objects.keep_points = " +
-                            std::to_string(o.keep_points));
+      throw FormatError(
+          config.dir, 0,
+          name + " has " + std::to_string(s.cloud.size()) +
+              " points, fewer than objects.keep_points = " + std::to_string(o.keep_points));
     s.cloud.points.resize(static_cast<std::size_t>(o.keep_points));
     if (!s.cloud.intensity.empty()) s.cloud.intensity.resize(s.cloud.points.size());
     if (!s.cloud.colors.empty()) s.cloud.colors.resize(s.cloud.points.size());
     s.cloud.frame_id = name;
   };
   auto labelName = [&](int label) {
-    return label >= 0 && label < static_cast<int>(names.size()) ? names[static_cast<std::size_t>(label)]
-                                                              : std::to_string(label);
+    return label >= 0 && label < static_cast<int>(names.size())
+               ? names[static_cast<std::size_t>(label)]
+               : std::to_string(label);
   };
   obmnet::ObjectSet set;
   auto train = io::readModelNet40(config.dir, io::ModelNetSplit::Train);

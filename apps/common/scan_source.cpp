@@ -49,8 +49,8 @@ std::string sequenceFolder(const ScanSourceConfig& c, const std::string& name) {
                 " and " + name + ")");
 }
 
-std::vector<std::shared_ptr<const io::KittiSequence>> openAll(const ScanSourceConfig& c,
-                                                              const std::vector<std::string>& names) {
+std::vector<std::shared_ptr<const io::KittiSequence>> openAll(
+    const ScanSourceConfig& c, const std::vector<std::string>& names) {
   std::vector<std::shared_ptr<const io::KittiSequence>> seqs;
   for (const auto& n : names) {
     auto s = std::make_shared<const io::KittiSequence>(sequenceFolder(c, n));
@@ -70,7 +70,8 @@ PointCloud loadScan(const io::KittiSequence& s, std::size_t i, const ScanSourceC
   return scan;
 }
 
-/// The pair (source = scan i + gap, target = scan i): T_target_source = T_world_i⁻¹ · T_world_{i+gap}.
+/// The pair (source = scan i + gap, target = scan i): T_target_source = T_world_i⁻¹ ·
+/// T_world_{i+gap}.
 obmnet::RegistrationPair makePairAt(const io::KittiSequence& s, std::size_t i,
                                     const ScanSourceConfig& c, int num_points,
                                     std::mt19937_64& rng) {
@@ -80,12 +81,11 @@ obmnet::RegistrationPair makePairAt(const io::KittiSequence& s, std::size_t i,
     const auto& gt = s.groundTruthLidar();
     T = gt[i].inverse() * gt[j];
   }
-  auto pair = obmnet::makeScanPair(loadScan(s, j, c), loadScan(s, i, c), T, c.voxel, num_points,
-                                   rng);
+  auto pair =
+      obmnet::makeScanPair(loadScan(s, j, c), loadScan(s, i, c), T, c.voxel, num_points, rng);
   pair.name = s.name() + ":" + std::to_string(j) + "->" + std::to_string(i);
   return pair;
 }
-
 
 /// The self-pair of the curriculum: one sampled scan and a made-up motion of it.
 obmnet::RegistrationPair makeSelfPair(const io::KittiSequence& s, std::size_t i,
@@ -94,11 +94,10 @@ obmnet::RegistrationPair makeSelfPair(const io::KittiSequence& s, std::size_t i,
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   const double kDeg = 3.14159265358979323846 / 180.0;
   Isometry3d T_target_source = Isometry3d::Identity();
-  T_target_source.linear() =
-      (Eigen::AngleAxisd(10.0 * kDeg * u(rng), Eigen::Vector3d::UnitZ()) *
-       Eigen::AngleAxisd(1.0 * kDeg * u(rng), Eigen::Vector3d::UnitY()) *
-       Eigen::AngleAxisd(1.0 * kDeg * u(rng), Eigen::Vector3d::UnitX()))
-          .toRotationMatrix();
+  T_target_source.linear() = (Eigen::AngleAxisd(10.0 * kDeg * u(rng), Eigen::Vector3d::UnitZ()) *
+                              Eigen::AngleAxisd(1.0 * kDeg * u(rng), Eigen::Vector3d::UnitY()) *
+                              Eigen::AngleAxisd(1.0 * kDeg * u(rng), Eigen::Vector3d::UnitX()))
+                                 .toRotationMatrix();
   T_target_source.translation() = Eigen::Vector3d(10.0 * u(rng), 10.0 * u(rng), 0.2 * u(rng));
   obmnet::RegistrationPair pair;
   pair.target = randomSubset(voxelDownsample(loadScan(s, i, c), c.voxel),
@@ -127,8 +126,8 @@ obmnet::PairSampler scanPairSampler(const ScanSourceConfig& config, int num_poin
   return [seqs, counts, config, num_points, curriculum_epochs](std::mt19937_64& rng, int epoch) {
     std::discrete_distribution<std::size_t> pick(counts.begin(), counts.end());
     const auto& s = *seqs[pick(rng)];
-    std::uniform_int_distribution<std::size_t> at(0, s.size() - 1 -
-                                                         static_cast<std::size_t>(config.frame_gap));
+    std::uniform_int_distribution<std::size_t> at(
+        0, s.size() - 1 - static_cast<std::size_t>(config.frame_gap));
     const std::size_t i = at(rng);
     if (curriculum_epochs > 0 && epoch <= curriculum_epochs) {
       const double p_self = 1.0 - static_cast<double>(epoch - 1) / curriculum_epochs;
@@ -155,9 +154,8 @@ std::vector<obmnet::RegistrationPair> scanValidationPairs(const ScanSourceConfig
     const std::size_t last = s->size() - 1 - static_cast<std::size_t>(config.frame_gap);
     for (int k = 0; k < per && static_cast<int>(pairs.size()) < n; ++k) {
       // Evenly spaced along the sequence, so the validation covers all of it.
-      const std::size_t i = per > 1 ? (last * static_cast<std::size_t>(k)) /
-                                          static_cast<std::size_t>(per - 1)
-                                    : 0;
+      const std::size_t i =
+          per > 1 ? (last * static_cast<std::size_t>(k)) / static_cast<std::size_t>(per - 1) : 0;
       pairs.push_back(makePairAt(*s, i, config, num_points, rng));
     }
   }

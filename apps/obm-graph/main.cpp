@@ -24,8 +24,9 @@ int main(int argc, char** argv) {
                  "initial guess: file (vertices as read), spanning (odometry spanning tree) or "
                  "chordal (chordal relaxation) [default: chordal]");
   app.add_option("--robust", robust,
-                 "loss of loop edges: none, huber:D, cauchy:C, or dcs:PHI (outlier-robust dynamic "
-                 "covariance scaling) [default: none]");
+                 "loss of loop edges: none, huber:D, cauchy:C, dcs:PHI (outlier-robust dynamic "
+                 "covariance scaling) or dcs:auto (PHI calibrated on the graph's residuals) "
+                 "[default: none]");
   app.add_option("--max-iters", max_iters, "maximum Levenberg-Marquardt iterations [default: 100]");
   app.add_option("--threads", threads,
                  "threads for Jacobian evaluation, 0 = all cores [default: 0]");

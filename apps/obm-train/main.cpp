@@ -41,7 +41,8 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads, "intra-op threads (default: train.threads of the config)");
   app.add_option("--epochs", epochs, "override train.epochs");
   app.add_option("--max-hours", max_hours, "override train.max_hours (0 = no limit)");
-  app.add_option("--data", data_dir, "override data.dir (mesh folder, or the folder of the KITTI sequences)");
+  app.add_option("--data", data_dir,
+                 "override data.dir (mesh folder, or the folder of the KITTI sequences)");
   app.add_option("--measure", measure, "only measure training throughput on N batches and exit");
   app.add_option(
       "--overfit", overfit,
@@ -76,8 +77,8 @@ int main(int argc, char** argv) {
       auto val = obm::apps::scanValidationPairs(scans, n_points, cfg.val_pairs, cfg.seed);
       std::fprintf(stderr, "[obm-train] scans: %zu validation pairs (i, i+%d), %d points each\n",
                    val.size(), scans.frame_gap, n_points);
-      trainer_ptr = std::make_unique<obm::obmnet::Trainer>(cfg, std::move(sampler), std::move(val),
-                                                           out_dir);
+      trainer_ptr =
+          std::make_unique<obm::obmnet::Trainer>(cfg, std::move(sampler), std::move(val), out_dir);
     } else {
       auto src = obm::apps::ObjectSourceConfig::load(data);
       if (!data_dir.empty()) src.dir = data_dir;

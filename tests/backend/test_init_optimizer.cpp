@@ -220,6 +220,43 @@ TEST(Optimizer, RobustModeRejectsWrongLoops) {
   }
 }
 
+TEST(Optimizer, AutoDcsCalibratesPhiOnMisScaledInformation) {
+  // The information matrices understate the precision 10⁴-fold (as parking-garage's do): a
+  // correct edge's χ² is ~10⁻⁴·dof, so Φ = χ²_0.99(dof) lets every wrong loop through with full
+  // weight, while dcs:auto measures the scale on the residuals and rejects them.
+  for (int dim : {2, 3}) {
+    auto syn =
+        makeSyntheticGraph(dim == 3 ? sphereSpec(0.05, 0.01, 2) : gridSpec(0.05, 0.01, 2, 1500));
+    auto scaleInformation = [](PoseGraph& g) {
+      for (auto& e : g.edges3) e.information *= 1e-4;
+      for (auto& e : g.edges2) e.information *= 1e-4;
+    };
+    scaleInformation(syn.graph);
+    PoseGraph clean = syn.graph;
+    optimizeGraph(clean, Options{});
+    const double ate_clean = absoluteTrajectoryError(clean, syn.ground_truth).rmse;
+
+    PoseGraph bad = syn.graph;
+    ASSERT_GT(injectWrongLoops(bad, 0.1, 77), 3u);
+    PoseGraph fixed_phi = bad, auto_phi = bad;
+    Options fo;
+    fo.loop_loss = parseLoss(dim == 3 ? "dcs:16.8" : "dcs:11.3");
+    optimizeGraph(fixed_phi, fo);
+    Options ao;
+    ao.loop_loss = parseLoss("dcs:auto");
+    EXPECT_EQ(toString(ao.loop_loss), "dcs:auto");
+    const Summary s = optimizeGraph(auto_phi, ao);
+    EXPECT_TRUE(s.usable);
+    // The calibrated Φ is of the order of the scaled χ² quantile (10⁻⁴·16.8 resp. 10⁻⁴·11.3).
+    EXPECT_GT(s.dcs_phi, 1e-5) << dim << "D";
+    EXPECT_LT(s.dcs_phi, 1e-2) << dim << "D";
+    const double ate_fixed = absoluteTrajectoryError(fixed_phi, syn.ground_truth).rmse;
+    const double ate_auto = absoluteTrajectoryError(auto_phi, syn.ground_truth).rmse;
+    EXPECT_LT(ate_auto, 2.0 * ate_clean) << dim << "D clean " << ate_clean << " auto " << ate_auto;
+    EXPECT_GT(ate_fixed, 2.0 * ate_clean) << dim << "D fixed-Φ " << ate_fixed;
+  }
+}
+
 TEST(Optimizer, OptionsLoadFromYaml) {
   const auto node = ConfigNode::fromString(
       "init: spanning\nmax_iterations: 7\nnum_threads: 1\nloop_loss: cauchy:2.5\nfixed: [3, 4]\n",

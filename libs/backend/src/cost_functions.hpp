@@ -175,6 +175,8 @@ class EdgeSe2Cost final : public ceres::SizedCostFunction<3, 3, 3> {
 class DcsLoss final : public ceres::LossFunction {
  public:
   explicit DcsLoss(double phi) : phi_(phi) {}
+  /// Φ of the self-calibrating mode (`dcs:auto`), changed between solves, never during one.
+  void setPhi(double phi) { phi_ = phi; }
   void Evaluate(double s, double rho[3]) const override {
     if (s <= phi_) {
       rho[0] = s;

@@ -5,6 +5,7 @@
 
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <deque>
@@ -72,6 +73,11 @@ EdgeLoss parseLoss(const std::string& spec) {
   const auto colon = spec.find(':');
   const std::string kind = spec.substr(0, colon);
   EdgeLoss l;
+  if (kind == "dcs" && colon != std::string::npos && spec.substr(colon + 1) == "auto") {
+    l.kind = LossKind::Dcs;
+    l.scale = 0.0;  // Φ calibrated on the graph's own residuals (see Options::loop_loss)
+    return l;
+  }
   l.scale = colon == std::string::npos ? 1.0 : parseScale(spec, spec.substr(colon + 1));
   if (kind == "none")
     l.kind = LossKind::None;
@@ -83,7 +89,7 @@ EdgeLoss parseLoss(const std::string& spec) {
     l.kind = LossKind::Dcs;
   else
     throw ConfigError("unknown robust loss '" + spec +
-                      "' (expected none, huber[:δ], cauchy[:c] or dcs[:Φ])");
+                      "' (expected none, huber[:δ], cauchy[:c], dcs[:Φ] or dcs:auto)");
   return l;
 }
 
@@ -101,6 +107,7 @@ std::string toString(const EdgeLoss& l) {
       os << "cauchy:" << l.scale;
       break;
     case LossKind::Dcs:
+      if (l.scale <= 0.0) return "dcs:auto";
       os << "dcs:" << l.scale;
       break;
   }
@@ -183,6 +190,9 @@ struct Optimizer::Impl {
   std::unique_ptr<ceres::Manifold> pose_manifold = std::make_unique<
       ceres::ProductManifold<ceres::EuclideanManifold<3>, ceres::EigenQuaternionManifold>>();
   std::map<std::pair<int, double>, std::unique_ptr<ceres::LossFunction>> losses;
+  /// `dcs:auto`: the current Φ and the loss object that carries it (null until an edge uses it).
+  double auto_phi = 1.0;
+  detail::DcsLoss* auto_dcs = nullptr;
   std::deque<std::array<double, 7>> blocks;  // 3D: t(3) q(4: x y z w); 2D: x y θ
   std::unordered_map<NodeId, double*> block_of;
   std::size_t edges_in_problem = 0;
@@ -221,7 +231,8 @@ struct Optimizer::Impl {
           slot = std::make_unique<ceres::CauchyLoss>(l.scale);
           break;
         case LossKind::Dcs:
-          slot = std::make_unique<detail::DcsLoss>(l.scale);
+          slot = std::make_unique<detail::DcsLoss>(l.scale > 0.0 ? l.scale : auto_phi);
+          if (l.scale <= 0.0) auto_dcs = static_cast<detail::DcsLoss*>(slot.get());
           break;
         default:
           break;
@@ -427,9 +438,24 @@ struct Optimizer::Impl {
       }
       initialized = true;
     }
-    const double phi = opt.loop_loss.kind == LossKind::Dcs
-                           ? opt.loop_loss.scale
-                           : opt.loop_loss.scale * opt.loop_loss.scale;
+    // `dcs:auto`: Φ is the 99 % quantile of a correct edge's χ² under the graph's own noise
+    // level. Datasets' information matrices are often off by orders of magnitude (parking-garage's
+    // edges have χ² ≈ 2·10⁻⁴ at the optimum instead of ≈ dof), which a fixed Φ cannot know. The
+    // scale ŝ = median χ² of the loop edges / median χ²(dof) is measured at the robust solution
+    // (the median ignores the wrong loops as long as most loops are right), Φ = ŝ·χ²_0.99(dof), and
+    // the graph is solved again until Φ settles (at most 4 rounds).
+    const bool auto_dcs_mode = opt.loop_loss.kind == LossKind::Dcs && opt.loop_loss.scale <= 0.0;
+    const double dof = graph.is3D() ? 6.0 : 3.0;
+    const double chi2_q99 = graph.is3D() ? 16.8119 : 11.3449;     // χ²_0.99(6), χ²_0.99(3)
+    const double chi2_median = graph.is3D() ? 5.34812 : 2.36597;  // medians of χ²(6), χ²(3)
+    (void)dof;
+    if (auto_dcs_mode) {
+      auto_phi = chi2_q99;  // round 1 trusts the information matrices
+      if (auto_dcs) auto_dcs->setPhi(auto_phi);
+    }
+    double phi = opt.loop_loss.kind == LossKind::Dcs
+                     ? (auto_dcs_mode ? auto_phi : opt.loop_loss.scale)
+                     : opt.loop_loss.scale * opt.loop_loss.scale;
 
     syncProblem();
     const auto ids = graph.nodeIds();
@@ -481,62 +507,93 @@ struct Optimizer::Impl {
     CallbackAdapter cb(s.per_iteration, callback);
     so.callbacks.push_back(&cb);
 
-    const PoseGraph start_graph = starts.size() > 1 ? graph : PoseGraph{};
+    const PoseGraph start_graph = starts.size() > 1 || auto_dcs_mode ? graph : PoseGraph{};
     PoseGraph best_graph;
     double best_cost = std::numeric_limits<double>::infinity();
     std::string best_name;
-    for (std::size_t k = 0; k < starts.size(); ++k) {
-      if (k > 0) graph = start_graph;
-      Timer init_timer;
-      const char* name = "as given";
-      switch (starts[k]) {
-        case Start::AsIs:
-          break;
-        case Start::File:
-          name = "file";
-          break;
-        case Start::Spanning:
-          name = "odometry spanning tree";
-          initialize(graph, InitMethod::Spanning);
-          break;
-        case Start::Chordal:
-          name = "chordal";
-          initialize(graph, InitMethod::Chordal);
-          break;
-        case Start::RobustChordal:
-          name = "re-weighted chordal";
-          initializeRobustChordal(graph, phi);
-          break;
+    const int rounds = auto_dcs_mode ? 4 : 1;
+    for (int round = 0; round < rounds; ++round) {
+      if (round > 0) {
+        // Re-calibrate Φ on the residuals of the best solution so far (see above).
+        // Loop edges only: with the loops switched off the odometry chain fits exactly, so the
+        // odometry residuals would shrink Φ towards 0 round after round.
+        std::vector<double> e2;
+        if (graph.is3D()) {
+          for (const auto& e : graph.edges3)
+            if (e.is_loop) e2.push_back(edgeChi2(graph, e));
+        } else {
+          for (const auto& e : graph.edges2)
+            if (e.is_loop) e2.push_back(edgeChi2(graph, e));
+        }
+        if (e2.empty()) break;  // nothing to calibrate on (and nothing for DCS to act on)
+        std::nth_element(e2.begin(), e2.begin() + std::ptrdiff_t(e2.size() / 2), e2.end());
+        const double scale = std::max(e2[e2.size() / 2] / chi2_median, 1e-12);
+        const double next = scale * chi2_q99;
+        OBM_LOG_INFO(kLog, "dcs:auto round " << round << ": median edge chi2 " << e2[e2.size() / 2]
+                                             << ", phi " << phi << " -> " << next);
+        if (std::abs(std::log(next / phi)) < std::log(1.5)) break;  // settled
+        phi = auto_phi = next;
+        if (auto_dcs) auto_dcs->setPhi(phi);
+        best_cost = std::numeric_limits<double>::infinity();
+        best_name.clear();
       }
-      s.init_time_s += init_timer.seconds();
-      const double init_chi2 = chi2(graph);
-      Timer solve_timer;
-      posesToBlocks();
-      ceres::Solver::Summary cs;
-      ceres::Solve(so, problem.get(), &cs);
-      blocksToPoses();
-      s.solve_time_s += solve_timer.seconds();
-      s.iterations += cs.num_successful_steps + cs.num_unsuccessful_steps;
-      if (!cs.IsSolutionUsable())
-        OBM_LOG_WARN(kLog, "solver failed from the " << name << " start: " << cs.message);
-      OBM_LOG_DEBUG(kLog, cs.FullReport());
-      if (starts.size() > 1)
-        OBM_LOG_INFO(kLog, "robust start '" << name << "': objective " << 2.0 * cs.final_cost
-                                            << ", chi2 " << chi2(graph));
-      if (cs.IsSolutionUsable() && (2.0 * cs.final_cost < best_cost || best_name.empty())) {
-        best_cost = 2.0 * cs.final_cost;
-        best_name = name;
-        s.init_chi2 = init_chi2;
-        s.converged = cs.termination_type == ceres::CONVERGENCE;
-        s.usable = true;
-        s.message = cs.message;
-        if (starts.size() > 1) best_graph = graph;
+      for (std::size_t k = 0; k < starts.size(); ++k) {
+        if (k > 0 || round > 0) graph = start_graph;
+        Timer init_timer;
+        const char* name = "as given";
+        switch (starts[k]) {
+          case Start::AsIs:
+            break;
+          case Start::File:
+            name = "file";
+            break;
+          case Start::Spanning:
+            name = "odometry spanning tree";
+            initialize(graph, InitMethod::Spanning);
+            break;
+          case Start::Chordal:
+            name = "chordal";
+            initialize(graph, InitMethod::Chordal);
+            break;
+          case Start::RobustChordal:
+            name = "re-weighted chordal";
+            initializeRobustChordal(graph, phi);
+            break;
+        }
+        s.init_time_s += init_timer.seconds();
+        const double init_chi2 = chi2(graph);
+        Timer solve_timer;
+        posesToBlocks();
+        ceres::Solver::Summary cs;
+        ceres::Solve(so, problem.get(), &cs);
+        blocksToPoses();
+        s.solve_time_s += solve_timer.seconds();
+        s.iterations += cs.num_successful_steps + cs.num_unsuccessful_steps;
+        if (!cs.IsSolutionUsable())
+          OBM_LOG_WARN(kLog, "solver failed from the " << name << " start: " << cs.message);
+        OBM_LOG_DEBUG(kLog, cs.FullReport());
+        if (starts.size() > 1)
+          OBM_LOG_INFO(kLog, "robust start '" << name << "': objective " << 2.0 * cs.final_cost
+                                              << ", chi2 " << chi2(graph));
+        if (cs.IsSolutionUsable() && (2.0 * cs.final_cost < best_cost || best_name.empty())) {
+          best_cost = 2.0 * cs.final_cost;
+          best_name = name;
+          s.init_chi2 = init_chi2;
+          s.converged = cs.termination_type == ceres::CONVERGENCE;
+          s.usable = true;
+          s.message = cs.message;
+          if (starts.size() > 1) best_graph = graph;
+        }
       }
-    }
-    if (starts.size() > 1 && !best_name.empty()) {
-      graph = std::move(best_graph);
-      s.message =
-          "best of " + std::to_string(starts.size()) + " starts: " + best_name + "; " + s.message;
+      if (starts.size() > 1 && !best_name.empty()) {
+        graph = best_graph;
+        s.message =
+            "best of " + std::to_string(starts.size()) + " starts: " + best_name + "; " + s.message;
+      }
+    }  // rounds of dcs:auto
+    if (auto_dcs_mode) {
+      s.message = "dcs:auto phi " + std::to_string(phi) + "; " + s.message;
+      s.dcs_phi = phi;
     }
     if (best_name.empty()) s.message = "solver failed";
     s.time_s = total.seconds();

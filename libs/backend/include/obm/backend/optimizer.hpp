@@ -17,7 +17,8 @@ class ConfigNode;
 
 namespace obm::backend {
 
-/// Parses "none", "huber:δ", "cauchy:c" or "dcs:Φ" (scale optional, default 1); throws ConfigError.
+/// Parses "none", "huber:δ", "cauchy:c", "dcs:Φ" (scale optional, default 1) or "dcs:auto" (Φ
+/// calibrated on the graph's own residuals; EdgeLoss scale 0); throws ConfigError.
 EdgeLoss parseLoss(const std::string& spec);
 /// "none" / "huber:1" / ... (inverse of parseLoss).
 std::string toString(const EdgeLoss& loss);
@@ -78,6 +79,7 @@ struct Summary {
   double time_s = 0.0;        ///< initialisation + solve [s] (no file I/O)
   double init_time_s = 0.0;   ///< initialisation [s]
   double solve_time_s = 0.0;  ///< Ceres solve incl. problem set-up [s]
+  double dcs_phi = 0.0;       ///< `dcs:auto`: the calibrated Φ used for the solution (else 0)
   bool converged = false;     ///< a convergence tolerance was met (not the iteration limit)
   bool usable = false;        ///< the solution is usable (converged or stopped early but valid)
   std::string message;        ///< Ceres' termination message
