@@ -38,6 +38,11 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   app.add_option("-o,--out", out_dir, "output folder (created)")->required();
   app.add_flag("--resume", resume, "continue from OUT/checkpoint.pt if it exists");
+  std::string init_model;
+  app.add_option("--init", init_model,
+                 "warm start: weights from this model file (e.g. a previous run's best.pt); "
+                 "fresh optimiser and epoch count")
+      ->check(CLI::ExistingFile);
   app.add_option("--threads", threads, "intra-op threads (default: train.threads of the config)");
   app.add_option("--epochs", epochs, "override train.epochs");
   app.add_option("--max-hours", max_hours, "override train.max_hours (0 = no limit)");
@@ -90,6 +95,7 @@ int main(int argc, char** argv) {
                                                            std::move(set.val), out_dir);
     }
     auto& trainer = *trainer_ptr;
+    if (!init_model.empty()) trainer.initializeFrom(init_model);
     if (overfit > 0) {
       const auto rows =
           trainer.overfitOneBatch(overfit, 5, overfit_epoch > 0 ? overfit_epoch : cfg.epochs);

@@ -327,6 +327,21 @@ ValidationScores Trainer::validate() {
   return impl_->validate();
 }
 
+void Trainer::initializeFrom(const std::string& model_path) {
+  ObmNet src = loadModel(model_path);
+  Impl& I = *impl_;
+  if (src->config().toYaml() != I.model->config().toYaml())
+    throw ConfigError(model_path +
+                      ": its model configuration differs from the training config's `model:` "
+                      "(a warm start needs the same network)");
+  torch::NoGradGuard ng;
+  const auto from_p = src->named_parameters(true);
+  for (auto& kv : I.model->named_parameters(true)) kv.value().copy_(from_p[kv.key()]);
+  const auto from_b = src->named_buffers(true);
+  for (auto& kv : I.model->named_buffers(true)) kv.value().copy_(from_b[kv.key()]);
+  OBM_LOG_INFO("obm-train", "weights initialised from " << model_path);
+}
+
 std::vector<std::array<double, 3>> Trainer::overfitOneBatch(int steps, int every, int epoch) {
   Impl& I = *impl_;
   std::mt19937_64 rng(I.cfg.seed + 4242u);

@@ -109,6 +109,14 @@ class Trainer {
   std::vector<EpochStats> run(bool resume, const std::function<bool()>& stop = {},
                               const std::function<void(const EpochStats&)>& on_epoch = {});
 
+  /// Warm start: copies the weights (parameters and batch-norm statistics) of the model file
+  /// `model_path` into the model before run(); the optimiser starts fresh. For continuing a run
+  /// with another protocol or learning rate (e.g. from best.pt after the curriculum). Throws
+  /// ConfigError naming the file when its model configuration differs from the config's
+  /// `model:`, IoError / FormatError as loadModel. Ignored by run(resume = true) when a
+  /// checkpoint exists (the checkpoint wins).
+  void initializeFrom(const std::string& model_path);
+
   /// Scores the current model on the validation pairs.
   ValidationScores validate();
 
