@@ -28,8 +28,10 @@ std::vector<std::string> splitList(const std::string& s) {
   return out;
 }
 
-bench::Method obmnetMethod(const std::string& name, const std::string& model, int threads) {
-  auto reg = std::make_shared<ObmNetRegistrar>(ObmNetRegistrar::Options{model, 0, threads, 0});
+bench::Method obmnetMethod(const std::string& name, const std::string& model, int threads,
+                           int num_points) {
+  auto reg =
+      std::make_shared<ObmNetRegistrar>(ObmNetRegistrar::Options{model, num_points, threads, 0});
   return {name, [reg](const PointCloud& s, const PointCloud& t) {
             return reg->align(s, t).T_target_source;
           }};
@@ -72,9 +74,10 @@ IcpParams objectRefineIcpParams() {
   return p;
 }
 
-bench::Method obmnetIcpMethod(const std::string& model, int threads) {
+bench::Method obmnetIcpMethod(const std::string& model, int threads, int num_points) {
   ObmNetMatcherParams p;
   p.model_path = model;
+  p.num_points = num_points;
   p.threads = threads;
   p.pre_align = false;
   p.keep_init_if_better = false;
@@ -100,7 +103,7 @@ int main(int argc, char** argv) {
   std::string pairs_dir, json_out, md_out, write_pairs, methods_arg, ablation, log_level = "warn";
   std::string config_path = "", model = "";
   std::string protocol = "clean", group = "unseen";
-  int n_pairs = 200, threads = 2;
+  int n_pairs = 200, threads = 2, num_points = -1;
   std::uint64_t seed = 1;
   double recall_deg = 1.0, recall_trans = 0.1;
   bool quiet = false;
@@ -127,6 +130,10 @@ int main(int argc, char** argv) {
   app.add_option("--write-pairs", write_pairs,
                  "also write the pairs to this folder (readable by --pairs)");
   app.add_option("--threads", threads, "threads for the network")->capture_default_str();
+  app.add_option("--num-points", num_points,
+                 "points per cloud the network samples (clouds with fewer are kept whole); "
+                 "default: the protocol's points per cloud (1024) for generated pairs, the "
+                 "model's for --pairs (0 = the model's)");
   app.add_flag("-q,--quiet", quiet, "no progress bars");
   app.add_option("--log-level", log_level, "debug|info|warn|error")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
@@ -147,6 +154,9 @@ int main(int argc, char** argv) {
       if (group != "seen" && group != "unseen") throw ConfigError("--group must be seen or unseen");
       if (objects.empty()) throw Error("no objects in the " + group + " group");
       const auto proto = obmnet::PairProtocol::preset(protocol);
+      // The network sees each generated cloud whole, as in RIENet's protocol (a partial crop
+      // has fewer points than the protocol's and is never sub-sampled).
+      if (num_points < 0) num_points = proto.num_points;
       std::mt19937_64 rng(seed);
       for (int i = 0; i < n_pairs; ++i) {
         pairs.push_back(
@@ -160,14 +170,16 @@ int main(int argc, char** argv) {
          << " objects), " << n_pairs << " pairs, seed " << seed << ", mean overlap " << ov;
       info = os.str();
     }
+    if (num_points < 0) num_points = 0;  // --pairs: as the model was trained
     if (!write_pairs.empty()) bench::writePairFolder(write_pairs, pairs);
 
     std::vector<bench::Method> methods;
     if (!ablation.empty()) {
-      for (const auto& m : splitList(ablation)) methods.push_back(obmnetMethod(m, m, threads));
+      for (const auto& m : splitList(ablation))
+        methods.push_back(obmnetMethod(m, m, threads, num_points));
     } else {
-      methods.push_back(obmnetMethod("obmnet", model, threads));
-      methods.push_back(obmnetIcpMethod(model, threads));
+      methods.push_back(obmnetMethod("obmnet", model, threads, num_points));
+      methods.push_back(obmnetIcpMethod(model, threads, num_points));
       methods.push_back(icpMethod());
       for (auto& m : bench::open3dMethods(bench::Open3dParams{})) methods.push_back(std::move(m));
     }

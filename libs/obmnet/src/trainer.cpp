@@ -478,8 +478,11 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
       s.best = true;
       ModelMeta meta;
       meta.normalize_radius = I.cfg.normalize_radius;
-      meta.num_points =
-          I.cfg.protocol.partial_keep > 0 ? I.cfg.protocol.partial_keep : I.cfg.protocol.num_points;
+      // The points per cloud *before* a partial crop: inference samples clouds larger than this
+      // down to it and keeps smaller ones whole. Recording the cropped count instead would make
+      // inference sub-sample the source and the target of a full (clean) pair independently, so
+      // identical clouds would no longer share their points.
+      meta.num_points = I.cfg.protocol.num_points;
       meta.description =
           "epoch " + std::to_string(epoch) + ", val MIE(R) " + std::to_string(v.mie_r) + " deg";
       saveModel(I.out + "/best.pt", I.model, meta);
