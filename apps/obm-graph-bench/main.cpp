@@ -111,6 +111,9 @@ int main(int argc, char** argv) {
                  "robust loss of the robustness runs [default: dcs:auto]; with a fixed Φ the "
                  "synthetic graphs use\n"
                  "their calibrated χ²_0.99 (dcs:16.8 in 3D, dcs:11.3 in 2D)");
+  bool no_synthetic = false;
+  app.add_flag("--no-synthetic", no_synthetic,
+               "skip the synthetic graphs of the robustness experiment (real graphs only)");
   app.add_option("--wrong-fraction", wrong_fraction,
                  "fraction of loop edges replaced [default: 0.1]");
   app.add_flag("--no-mrpt", no_mrpt, "skip MRPT graph-slam");
@@ -197,8 +200,11 @@ int main(int argc, char** argv) {
       grid.sigma_translation = 0.05;
       grid.sigma_rotation = 0.01;
       const bool auto_phi = robust_real == "dcs:auto";
-      for (const Syn& s : {Syn{"sphere (3D, 50×50)", sphere, auto_phi ? robust_real : "dcs:16.8"},
-                           Syn{"grid walk (2D)", grid, auto_phi ? robust_real : "dcs:11.3"}}) {
+      std::vector<Syn> synthetic{
+          Syn{"sphere (3D, 50×50)", sphere, auto_phi ? robust_real : "dcs:16.8"},
+          Syn{"grid walk (2D)", grid, auto_phi ? robust_real : "dcs:11.3"}};
+      if (no_synthetic) synthetic.clear();
+      for (const Syn& s : synthetic) {
         std::cerr << "[bench] robustness " << s.name << "\n";
         const SyntheticGraph syn = makeSyntheticGraph(s.spec);
         PoseGraph clean = syn.graph;
