@@ -51,7 +51,7 @@ fi
 echo "== 3/3 object registration: OBMNet vs classical peers (obm-bench) =="
 MODEL="$ROOT/share/obmslam/models/obmnet_objects.pt"
 if [[ -f "$MODEL" ]]; then
-  "$BIN/obm-bench" --model "$MODEL" --protocol partial_noise --group unseen -n 20 --threads 2 \
+  "$BIN/obm-bench" --model "$MODEL" --protocol partial --group unseen -n 20 --threads 2 \
     --json "$OUT/bench.json" --markdown "$OUT/bench.md"
 else
   echo "(no trained model at $MODEL: train one with obm-train, see docs/training.md)"
