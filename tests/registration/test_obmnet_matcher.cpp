@@ -2,6 +2,7 @@
 // results, α > 0, a symmetric PSD information matrix, the pre-alignment composition, statuses —
 // and exact convergence of the matchers that end with ICP, parametrised over matchers × kernels.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <Eigen/Eigenvalues>
 
@@ -28,7 +29,9 @@ const Isometry3d kTruth =
 class ObmNetMatchers : public ::testing::Test {
  public:
   static void SetUpTestSuite() {
-    dir() = test::scratchDir("registration_obmnet");
+    // One folder per process: ctest runs every test of this suite in its own process, in
+    // parallel, and scratchDir() empties the folder it returns.
+    dir() = test::scratchDir("registration_obmnet_" + std::to_string(::getpid()));
     torch::manual_seed(17);
     ObmNetConfig c;
     c.emb_dims = 16;
