@@ -15,6 +15,7 @@
 #include "obm/frontend/keyframe_selector.hpp"
 #include "obm/frontend/motion_model.hpp"
 #include "obm/registration/icp.hpp"
+#include "obm/registration/obmnet_matcher.hpp"
 
 namespace obm::frontend {
 
@@ -115,20 +116,27 @@ MatcherChoice chooseMatcher(const FrontendParams& params) {
     return c;
   }
   const std::string& model = c.config.obmnet.model_path;
-  if (std::filesystem::is_regular_file(model)) {
+  const bool available = obmNetAvailable();
+  if (available && std::filesystem::is_regular_file(model)) {
     c.message = "matcher: " + c.config.type + " (model " + model + ")";
     return c;
   }
-  if (params.matcher_fallback.empty())
+  const std::string why = available ? "the OBMNet model '" + model + "' of matcher.type '" +
+                                          params.matcher.type + "' does not exist"
+                                    : "this build has no OBMNet (LibTorch)";
+  if (params.matcher_fallback.empty()) {
+    if (!available)
+      throw ConfigError("matcher.type '" + c.config.type + "': " + why +
+                        " (set matcher.fallback: icp)");
     throw IoError("matcher: the OBMNet model '" + model + "' of matcher.type '" + c.config.type +
                   "' does not exist (train one with obm-train, or set matcher.fallback: icp)");
+  }
   if (isObmNetType(params.matcher_fallback))
     throw ConfigError("matcher.fallback: '" + params.matcher_fallback +
                       "' needs the same missing model '" + model + "'; use icp");
   c.config.type = params.matcher_fallback;
   c.fell_back = true;
-  c.message = "matcher: " + c.config.type + " (fallback: the OBMNet model '" + model +
-              "' of matcher.type '" + params.matcher.type + "' does not exist)";
+  c.message = "matcher: " + c.config.type + " (fallback: " + why + ")";
   return c;
 }
 

@@ -229,4 +229,12 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud&, const PreparedTarget
 
 #endif
 
+bool obmNetAvailable() noexcept {
+#ifdef OBM_REGISTRATION_HAS_OBMNET
+  return true;
+#else
+  return false;
+#endif
+}
+
 }  // namespace obm

@@ -35,6 +35,9 @@ struct ObmNetMatcherParams {
   static ObmNetMatcherParams load(const ConfigNode& node);
 };
 
+/// Whether this build has the OBMNet matchers (LibTorch); without it they throw ConfigError.
+bool obmNetAvailable() noexcept;
+
 /// OBMNet alone: the pose is the network's; the confidence is evaluated at it.
 class ObmNetMatcher : public ScanMatcher {
  public:
