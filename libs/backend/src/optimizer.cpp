@@ -445,10 +445,8 @@ struct Optimizer::Impl {
     // (the median ignores the wrong loops as long as most loops are right), Φ = ŝ·χ²_0.99(dof), and
     // the graph is solved again until Φ settles (at most 4 rounds).
     const bool auto_dcs_mode = opt.loop_loss.kind == LossKind::Dcs && opt.loop_loss.scale <= 0.0;
-    const double dof = graph.is3D() ? 6.0 : 3.0;
     const double chi2_q99 = graph.is3D() ? 16.8119 : 11.3449;     // χ²_0.99(6), χ²_0.99(3)
     const double chi2_median = graph.is3D() ? 5.34812 : 2.36597;  // medians of χ²(6), χ²(3)
-    (void)dof;
     if (auto_dcs_mode) {
       auto_phi = chi2_q99;  // round 1 trusts the information matrices
       if (auto_dcs) auto_dcs->setPhi(auto_phi);
