@@ -29,9 +29,9 @@ std::vector<std::string> splitList(const std::string& s) {
 }
 
 bench::Method obmnetMethod(const std::string& name, const std::string& model, int threads,
-                           int num_points) {
-  auto reg =
-      std::make_shared<ObmNetRegistrar>(ObmNetRegistrar::Options{model, num_points, threads, 0});
+                           int num_points, int denoise) {
+  auto reg = std::make_shared<ObmNetRegistrar>(
+      ObmNetRegistrar::Options{model, num_points, threads, 0, denoise});
   return {name, [reg](const PointCloud& s, const PointCloud& t) {
             return reg->align(s, t).T_target_source;
           }};
@@ -74,8 +74,10 @@ IcpParams objectRefineIcpParams() {
   return p;
 }
 
-bench::Method obmnetIcpMethod(const std::string& model, int threads, int num_points) {
+bench::Method obmnetIcpMethod(const std::string& model, int threads, int num_points,
+                              int denoise) {
   ObmNetMatcherParams p;
+  p.denoise_neighbors = denoise;
   p.model_path = model;
   p.num_points = num_points;
   p.threads = threads;
@@ -103,9 +105,9 @@ int main(int argc, char** argv) {
   std::string pairs_dir, json_out, md_out, write_pairs, methods_arg, ablation, log_level = "warn";
   std::string config_path = "", model = "";
   std::string protocol = "clean", group = "unseen";
-  int n_pairs = 200, threads = 2, num_points = -1;
+  int n_pairs = 200, threads = 2, num_points = -1, denoise = 0;
   std::uint64_t seed = 1;
-  double recall_deg = 1.0, recall_trans = 0.1;
+  double recall_deg = 1.0, recall_trans = 0.1, jitter_sigma = -1.0;
   bool quiet = false;
   app.add_option("--pairs", pairs_dir, "score the pairs in this folder instead of generated ones");
   app.add_option("--json", json_out, "write the results as JSON");
@@ -116,6 +118,9 @@ int main(int argc, char** argv) {
                  "YAML with a `data:` map for the object set (default: the training config)");
   app.add_option("--protocol", protocol, "clean | jitter | outliers | partial | partial_noise")
       ->capture_default_str();
+  app.add_option("--jitter", jitter_sigma,
+                 "per-point Gaussian jitter σ of both clouds, overriding the protocol's (clipped "
+                 "at 5σ of RIENet's 0.01/0.05 ratio); a sensitivity sweep");
   app.add_option("--group", group,
                  "seen (training objects, new poses) | unseen (held-out test objects)")
       ->capture_default_str();
@@ -134,6 +139,10 @@ int main(int argc, char** argv) {
                  "points per cloud the network samples (clouds with fewer are kept whole); "
                  "default: the protocol's points per cloud (1024) for generated pairs, the "
                  "model's for --pairs (0 = the model's)");
+  app.add_option("--denoise", denoise,
+                 "neighbour-mean denoising of the network's inputs: each point averaged with its "
+                 "K nearest neighbours (0 = off; for jittered clouds)")
+      ->capture_default_str();
   app.add_flag("-q,--quiet", quiet, "no progress bars");
   app.add_option("--log-level", log_level, "debug|info|warn|error")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
@@ -153,7 +162,11 @@ int main(int argc, char** argv) {
       const auto& objects = group == "seen" ? set.train : set.test;
       if (group != "seen" && group != "unseen") throw ConfigError("--group must be seen or unseen");
       if (objects.empty()) throw Error("no objects in the " + group + " group");
-      const auto proto = obmnet::PairProtocol::preset(protocol);
+      auto proto = obmnet::PairProtocol::preset(protocol);
+      if (jitter_sigma >= 0.0) {
+        proto.jitter_sigma = jitter_sigma;
+        proto.jitter_clip = 5.0 * jitter_sigma;
+      }
       // The network sees each generated cloud whole, as in RIENet's protocol (a partial crop
       // has fewer points than the protocol's and is never sub-sampled).
       if (num_points < 0) num_points = proto.num_points;
@@ -168,6 +181,7 @@ int main(int argc, char** argv) {
       std::ostringstream os;
       os << "protocol " << protocol << ", " << group << " group (" << objects.size()
          << " objects), " << n_pairs << " pairs, seed " << seed << ", mean overlap " << ov;
+      if (jitter_sigma >= 0.0) os << ", jitter σ " << jitter_sigma;
       info = os.str();
     }
     if (num_points < 0) num_points = 0;  // --pairs: as the model was trained
@@ -176,10 +190,10 @@ int main(int argc, char** argv) {
     std::vector<bench::Method> methods;
     if (!ablation.empty()) {
       for (const auto& m : splitList(ablation))
-        methods.push_back(obmnetMethod(m, m, threads, num_points));
+        methods.push_back(obmnetMethod(m, m, threads, num_points, denoise));
     } else {
-      methods.push_back(obmnetMethod("obmnet", model, threads, num_points));
-      methods.push_back(obmnetIcpMethod(model, threads, num_points));
+      methods.push_back(obmnetMethod("obmnet", model, threads, num_points, denoise));
+      methods.push_back(obmnetIcpMethod(model, threads, num_points, denoise));
       methods.push_back(icpMethod());
       for (auto& m : bench::open3dMethods(bench::Open3dParams{})) methods.push_back(std::move(m));
     }

@@ -13,6 +13,7 @@
 #include "obm/obmnet/model_io.hpp"
 #include "obm/obmnet/object_set.hpp"
 #include "obm/obmnet/registrar.hpp"
+#include "obm/obmnet/trainer.hpp"
 
 using namespace obm;
 using namespace obm::obmnet;
@@ -103,6 +104,82 @@ TEST(PairProtocol, DeterministicForASeed) {
   const auto q = makePair(obj, PairProtocol::preset("partial_noise"), b);
   EXPECT_TRUE(p.T_target_source.isApprox(q.T_target_source, 0.0));
   EXPECT_EQ(p.source.points[10], q.source.points[10]);
+}
+
+TEST(PairProtocol, UniformJitterMixesNoiseLevels) {
+  const auto obj = sphereCloud(1024, 15);
+  std::mt19937_64 rng(16);
+  auto proto = PairProtocol::preset("jitter");
+  proto.jitter_uniform = true;
+  // The RMS distance of the source points from the sphere estimates each pair's σ: drawn from
+  // [0, σ], the levels must spread over most of the range instead of sitting at σ.
+  double lo = 1e9, hi = 0.0;
+  for (int i = 0; i < 30; ++i) {
+    const auto p = makePair(obj, proto, rng);
+    double ss = 0.0;
+    for (const auto& s : p.source.points) ss += std::pow(s.norm() - 1.0, 2);
+    const double rms = std::sqrt(ss / static_cast<double>(p.source.size()));
+    lo = std::min(lo, rms);
+    hi = std::max(hi, rms);
+  }
+  EXPECT_LT(lo, 0.3 * proto.jitter_sigma);
+  EXPECT_GT(hi, 0.7 * proto.jitter_sigma);
+  EXPECT_LT(hi, 1.2 * proto.jitter_sigma);
+}
+
+TEST(Curriculum, RampsCropAndJitterFromItsStartLevel) {
+  const auto target = PairProtocol::preset("partial_noise");  // 640 of 1024, σ 0.01
+  // From clean pairs: epoch 1 is clean, half-way is half the crop and jitter.
+  const auto c1 = curriculumProtocol(target, 1, 10);
+  EXPECT_EQ(c1.partial_keep, 1024);
+  EXPECT_DOUBLE_EQ(c1.jitter_sigma, 0.0);
+  const auto c6 = curriculumProtocol(target, 6, 10);
+  EXPECT_EQ(c6.partial_keep, 1024 - 192);
+  EXPECT_NEAR(c6.jitter_sigma, 0.005, 1e-12);
+  // A start level of 0.3: epoch 1 already has 30 % of the crop and the jitter.
+  const auto s1 = curriculumProtocol(target, 1, 10, 0.3);
+  EXPECT_EQ(s1.partial_keep, 1024 - 115);
+  EXPECT_NEAR(s1.jitter_sigma, 0.003, 1e-12);
+  const auto s6 = curriculumProtocol(target, 6, 10, 0.3);
+  EXPECT_NEAR(s6.jitter_sigma, 0.0065, 1e-12);
+  // After the curriculum: the target itself.
+  EXPECT_EQ(curriculumProtocol(target, 10, 10, 0.3).partial_keep, 640);
+  EXPECT_DOUBLE_EQ(curriculumProtocol(target, 12, 10, 0.3).jitter_sigma, 0.01);
+}
+
+TEST(NeighbourMean, ReducesJitterAndCommutesWithRigidMotion) {
+  const auto obj = sphereCloud(1024, 17);
+  std::mt19937_64 rng(18);
+  std::normal_distribution<float> G(0.f, 0.01f);
+  PointCloud noisy = obj;
+  for (auto& p : noisy.points) p += Vector3f(G(rng), G(rng), G(rng));
+  // Spread of the radius around its mean: the noise. (The mean itself moves inwards: averaging
+  // over a cap of the sphere is a blur of about the sampling spacing, the same for any cloud.)
+  auto radialSpread = [](const PointCloud& c) {
+    double s = 0.0, ss = 0.0;
+    for (const auto& p : c.points) {
+      s += p.norm();
+      ss += double(p.norm()) * p.norm();
+    }
+    const double n = static_cast<double>(c.size());
+    return std::sqrt(std::max(0.0, ss / n - (s / n) * (s / n)));
+  };
+  const PointCloud smooth = neighbourMean(noisy, 8);
+  ASSERT_EQ(smooth.size(), noisy.size());
+  // Radial noise σ = 0.01 drops by about √9 = 3.
+  EXPECT_LT(radialSpread(smooth), 0.5 * radialSpread(noisy));
+  // Moving the cloud and then averaging = averaging and then moving.
+  const Isometry3d T = makeIsometry(Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized())
+                                        .toRotationMatrix(),
+                                    Eigen::Vector3d(0.3, -0.2, 0.5));
+  const PointCloud a = neighbourMean(noisy.transformed(T, "x"), 8);
+  const PointCloud b = smooth.transformed(T, "x");
+  double worst = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    worst = std::max(worst, double((a.points[i] - b.points[i]).norm()));
+  EXPECT_LT(worst, 1e-5);
+  // k = 0 is the identity.
+  EXPECT_EQ(neighbourMean(noisy, 0).points[5], noisy.points[5]);
 }
 
 TEST(PairNormalization, RoundTripAndDenormalize) {

@@ -107,6 +107,15 @@ class BlockSystem {
   void addB(int i, const Rhs& b) { rhs_.template block<D, K>(D * i, 0) += b; }
   /// Returns false when the system is singular.
   bool solve(Eigen::MatrixXd& x) const {
+    if (D * n_ <= 64) {
+      // Tiny graphs: a dense factorisation beats the sparse one's ordering and symbolic steps.
+      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(D * n_, D * n_);
+      for (const auto& t : trip_) H(t.row(), t.col()) += t.value();
+      const Eigen::LDLT<Eigen::MatrixXd> ldlt(H);
+      if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 0.0).all()) return false;
+      x = ldlt.solve(rhs_);
+      return x.allFinite();
+    }
     Eigen::SparseMatrix<double> H(D * n_, D * n_);
     H.setFromTriplets(trip_.begin(), trip_.end());
     Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(H);

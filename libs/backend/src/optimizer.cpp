@@ -368,6 +368,15 @@ struct Optimizer::Impl {
         break;
     }
     const int n = int(index.size());
+    // Small graphs: every library factors them in microseconds; the fill-in estimate below
+    // would cost more than it can save.
+    if (n < 200) {
+#ifndef CERES_NO_CXSPARSE
+      return ceres::CX_SPARSE;
+#else
+      return ceres::EIGEN_SPARSE;
+#endif
+    }
     std::vector<Eigen::Triplet<double>> tr;
     tr.reserve(n + 4 * graph.numEdges());
     for (int i = 0; i < n; ++i) tr.emplace_back(i, i, 1.0);
@@ -496,9 +505,10 @@ struct Optimizer::Impl {
     so.function_tolerance = opt.function_tolerance;
     so.gradient_tolerance = opt.gradient_tolerance;
     so.parameter_tolerance = opt.parameter_tolerance;
-    const int hw = std::max(1u, std::thread::hardware_concurrency());
-    so.num_threads = opt.num_threads > 0 ? opt.num_threads : int(hw);
-    // Threads only pay off when there is enough Jacobian work per iteration.
+    // Threads only pay off when there is enough Jacobian work per iteration. (The core count is
+    // read from sysfs on every call, a measurable part of a tiny graph's solve: cached.)
+    static const int hw = int(std::max(1u, std::thread::hardware_concurrency()));
+    so.num_threads = opt.num_threads > 0 ? opt.num_threads : hw;
     if (opt.num_threads == 0 && graph.numEdges() < 2000) so.num_threads = 1;
     so.logging_type = ceres::SILENT;
     so.minimizer_progress_to_stdout = false;

@@ -123,7 +123,7 @@ MatcherChoice chooseMatcher(const FrontendParams& params) {
   }
   const std::string why = available ? "the OBMNet model '" + model + "' of matcher.type '" +
                                           params.matcher.type + "' does not exist"
-                                    : "this build has no OBMNet (LibTorch)";
+                                    : "this build has no OBMNet (LibTorch) to run the model '" + model + "'";
   if (params.matcher_fallback.empty()) {
     if (!available)
       throw ConfigError("matcher.type '" + c.config.type + "': " + why +

@@ -79,7 +79,7 @@ PairProtocol PairProtocol::preset(const std::string& name) {
 
 PairProtocol PairProtocol::load(const ConfigNode& node) {
   node.checkKeys({"preset", "num_points", "max_angle_deg", "axis_angle", "max_translation",
-                  "partial_keep", "partial_far", "jitter_sigma", "jitter_clip", "outliers"});
+                  "partial_keep", "partial_far", "jitter_sigma", "jitter_clip", "jitter_uniform", "outliers"});
   PairProtocol p;
   if (node.has("preset")) {
     try {
@@ -96,6 +96,7 @@ PairProtocol PairProtocol::load(const ConfigNode& node) {
   node.get("partial_far", p.partial_far);
   node.get("jitter_sigma", p.jitter_sigma);
   node.get("jitter_clip", p.jitter_clip);
+  node.get("jitter_uniform", p.jitter_uniform);
   node.get("outliers", p.outliers);
   if (p.num_points < 8) throw ConfigError(node.where("num_points") + ": must be >= 8");
   if (p.partial_keep < 0 || p.partial_keep > p.num_points)
@@ -175,8 +176,12 @@ RegistrationPair makePair(const PointCloud& cloud, const PairProtocol& protocol,
   tgt = randomSubset(tgt, tgt.size(), rng);
   tgt.transform(pair.T_target_source);
   if (protocol.jitter_sigma > 0.0) {
-    jitter(src, protocol.jitter_sigma, protocol.jitter_clip, rng);
-    jitter(tgt, protocol.jitter_sigma, protocol.jitter_clip, rng);
+    double f = 1.0;
+    if (protocol.jitter_uniform) f = std::uniform_real_distribution<double>(0.0, 1.0)(rng);
+    if (f > 0.0) {
+      jitter(src, f * protocol.jitter_sigma, f * protocol.jitter_clip, rng);
+      jitter(tgt, f * protocol.jitter_sigma, f * protocol.jitter_clip, rng);
+    }
   }
   if (protocol.outliers > 0) {
     addOutliers(src, protocol.outliers, rng);
@@ -187,6 +192,26 @@ RegistrationPair makePair(const PointCloud& cloud, const PairProtocol& protocol,
   pair.source = std::move(src);
   pair.target = std::move(tgt);
   return pair;
+}
+
+PointCloud neighbourMean(const PointCloud& cloud, int k) {
+  OBM_ASSERT(k >= 0, "neighbourMean: k must be >= 0");
+  const std::size_t n = cloud.size();
+  if (k == 0 || n < 2) return cloud;
+  const auto kk = std::min<std::size_t>(static_cast<std::size_t>(k), n - 1);
+  PointCloud out = cloud;
+  std::vector<std::pair<float, std::uint32_t>> d(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3f& p = cloud.points[i];
+    for (std::size_t j = 0; j < n; ++j)
+      d[j] = {(cloud.points[j] - p).squaredNorm(), static_cast<std::uint32_t>(j)};
+    // kk + 1: the point itself is its own nearest neighbour (distance 0).
+    std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(kk), d.end());
+    Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+    for (std::size_t j = 0; j <= kk; ++j) sum += cloud.points[d[j].second];
+    out.points[i] = sum / static_cast<float>(kk + 1);
+  }
+  return out;
 }
 
 RegistrationPair makeScanPair(const PointCloud& source_scan, const PointCloud& target_scan,

@@ -28,7 +28,7 @@ TrainConfig TrainConfig::load(const ConfigNode& root) {
   t.checkKeys({"pairs", "val_pairs_protocol", "batch_size", "epochs", "pairs_per_epoch",
                "val_pairs", "lr", "weight_decay", "lr_steps", "lr_gamma", "normalize_radius",
                "recall_deg", "recall_trans", "max_grad_norm", "threads", "seed", "max_hours",
-               "curriculum_epochs"});
+               "curriculum_epochs", "curriculum_start"});
   c.protocol = PairProtocol::load(t.child("pairs"));
   c.val_protocol =
       t.has("val_pairs_protocol") ? PairProtocol::load(t.child("val_pairs_protocol")) : c.protocol;
@@ -48,6 +48,9 @@ TrainConfig TrainConfig::load(const ConfigNode& root) {
   t.get("seed", c.seed);
   t.get("max_hours", c.max_hours);
   t.get("curriculum_epochs", c.curriculum_epochs);
+  t.get("curriculum_start", c.curriculum_start);
+  if (!(c.curriculum_start >= 0.0 && c.curriculum_start < 1.0))
+    throw ConfigError(t.where("curriculum_start") + ": must be in [0, 1)");
   auto positive = [&](const char* key, double v) {
     if (!(v > 0)) throw ConfigError(t.where(key) + ": must be > 0");
   };
@@ -123,9 +126,12 @@ std::string csvRow(const EpochStats& s) {
 
 }  // namespace
 
-PairProtocol curriculumProtocol(const PairProtocol& target, int epoch, int curriculum_epochs) {
+PairProtocol curriculumProtocol(const PairProtocol& target, int epoch, int curriculum_epochs,
+                                double curriculum_start) {
   if (curriculum_epochs <= 0 || epoch >= curriculum_epochs) return target;
-  const double f = std::clamp(static_cast<double>(epoch - 1) / curriculum_epochs, 0.0, 1.0);
+  const double f0 = std::clamp(curriculum_start, 0.0, 1.0);
+  const double f =
+      f0 + (1.0 - f0) * std::clamp(static_cast<double>(epoch - 1) / curriculum_epochs, 0.0, 1.0);
   PairProtocol p = target;
   if (target.partial_keep > 0)
     p.partial_keep = static_cast<int>(
@@ -136,13 +142,15 @@ PairProtocol curriculumProtocol(const PairProtocol& target, int epoch, int curri
 }
 
 PairSampler objectPairSampler(std::vector<PointCloud> clouds, PairProtocol protocol,
-                              int curriculum_epochs) {
+                              int curriculum_epochs, double curriculum_start) {
   if (clouds.empty()) throw ContractError("objectPairSampler: no training clouds");
   auto shared = std::make_shared<const std::vector<PointCloud>>(std::move(clouds));
-  return [shared, protocol, curriculum_epochs](std::mt19937_64& rng, int epoch) {
+  return [shared, protocol, curriculum_epochs, curriculum_start](std::mt19937_64& rng,
+                                                                 int epoch) {
     std::uniform_int_distribution<std::size_t> pick(0, shared->size() - 1);
     const auto& c = (*shared)[pick(rng)];
-    return makePair(c, curriculumProtocol(protocol, epoch, curriculum_epochs), rng);
+    return makePair(c, curriculumProtocol(protocol, epoch, curriculum_epochs, curriculum_start),
+                    rng);
   };
 }
 
@@ -311,7 +319,8 @@ Trainer::Trainer(TrainConfig config, std::vector<PointCloud> train_clouds,
                  std::vector<PointCloud> val_clouds, std::string out_dir) {
   auto val = objectValidationPairs(val_clouds, config.val_protocol, config.val_pairs, config.seed);
   auto sampler =
-      objectPairSampler(std::move(train_clouds), config.protocol, config.curriculum_epochs);
+      objectPairSampler(std::move(train_clouds), config.protocol, config.curriculum_epochs,
+                        config.curriculum_start);
   impl_ = std::make_unique<Impl>(std::move(config), std::move(sampler), std::move(val),
                                  std::move(out_dir));
 }

@@ -11,16 +11,20 @@ namespace obm {
 ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   ObmNetMatcherParams p;
   node.checkKeys(
-      {"model_path", "num_points", "threads", "seed", "pre_align", "keep_init_if_better"});
+      {"model_path", "num_points", "threads", "seed", "denoise_neighbors", "pre_align",
+       "keep_init_if_better"});
   p.model_path = node.required<std::string>("model_path");
   node.get("num_points", p.num_points);
   node.get("threads", p.threads);
   node.get("seed", p.seed);
+  node.get("denoise_neighbors", p.denoise_neighbors);
   node.get("pre_align", p.pre_align);
   node.get("keep_init_if_better", p.keep_init_if_better);
   if (p.model_path.empty()) throw ConfigError(node.where("model_path") + ": must not be empty");
   if (p.num_points < 0) throw ConfigError(node.where("num_points") + ": must be >= 0");
   if (p.threads < 1) throw ConfigError(node.where("threads") + ": must be >= 1");
+  if (p.denoise_neighbors < 0)
+    throw ConfigError(node.where("denoise_neighbors") + ": must be >= 0");
   // A relative model path is relative to the YAML file that names it.
   const std::filesystem::path model(p.model_path);
   if (model.is_relative() && !node.file().empty() && std::filesystem::exists(node.file()))

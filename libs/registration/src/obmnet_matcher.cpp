@@ -29,6 +29,7 @@ ObmNetRegistrar makeRegistrar(const ObmNetMatcherParams& p) {
   o.num_points = p.num_points;
   o.threads = p.threads;
   o.seed = p.seed;
+  o.denoise_neighbors = p.denoise_neighbors;
   return ObmNetRegistrar(o);
 }
 

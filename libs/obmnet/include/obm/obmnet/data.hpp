@@ -48,6 +48,9 @@ struct PairProtocol {
   /// target [cloud units]. 0 = none.
   double jitter_sigma = 0.0;
   double jitter_clip = 0.05;
+  /// Draw each pair's σ uniformly from [0, jitter_sigma] (clip scaled with it): a training mix
+  /// of noise levels, so that a batch always holds pairs the current features can still match.
+  bool jitter_uniform = false;
   /// RIENet's "noise": this many outliers appended to each cloud, uniform in [−1, 1]³ plus
   /// N(0, 0.5²) and clipped to ±1.
   int outliers = 0;
@@ -82,6 +85,13 @@ RegistrationPair makePair(const PointCloud& cloud, const PairProtocol& protocol,
 RegistrationPair makeScanPair(const PointCloud& source_scan, const PointCloud& target_scan,
                               const Isometry3d& T_target_source, double voxel, int num_points,
                               std::mt19937_64& rng);
+
+/// Replaces every point by the mean of itself and its k nearest neighbours (Euclidean, brute
+/// force: meant for the network's ≤ 2048-point clouds). Per-point jitter of σ drops to about
+/// σ/√(k+1) while the surface is blurred by about the sampling spacing — the same blur in both
+/// clouds of a pair, and the operation commutes with rigid motions, so the relative pose is
+/// unchanged. k = 0 returns the cloud as is.
+PointCloud neighbourMean(const PointCloud& cloud, int k);
 
 /// The normalisation applied to a pair before the network sees it, identical in training and at
 /// inference: each cloud is centred on its own centroid and both are scaled by one factor s so

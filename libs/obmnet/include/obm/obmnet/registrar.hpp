@@ -38,6 +38,11 @@ class ObmNetRegistrar {
     int num_points = 0;  ///< points sampled per cloud; 0 = the number the model was trained with
     int threads = 2;     ///< intra-op threads
     std::uint64_t seed = 0;  ///< seeds the point sampling (the Gumbel noise is seeded by the model)
+    /// Neighbour-mean denoising of both sampled clouds before the network (0 = off): each point
+    /// becomes the mean of itself and its `denoise_neighbors` nearest neighbours (see
+    /// obmnet::neighbourMean). For per-point sensor noise the model was not trained on; the
+    /// returned sampled clouds stay the raw points.
+    int denoise_neighbors = 0;
   };
 
   /// Loads the model. A missing, corrupt or mismatched file throws IoError / FormatError naming it.

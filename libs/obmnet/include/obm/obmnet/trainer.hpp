@@ -45,6 +45,9 @@ struct TrainConfig {
   /// linearly; see curriculumProtocol). Learning to match from scratch on partial, noisy pairs
   /// is slow; on identical points it is immediate, and the features carry over.
   int curriculum_epochs = 0;
+  /// Level of the curriculum at epoch 1, in [0, 1): 0 = clean pairs; e.g. 0.4 starts a
+  /// warm-started model at 40 % of the target's jitter and crop, where it still matches.
+  double curriculum_start = 0.0;
 
   static TrainConfig load(const ConfigNode& root);
 };
@@ -77,12 +80,13 @@ using PairSampler = std::function<RegistrationPair(std::mt19937_64& rng, int epo
 /// The protocol of epoch `epoch` under a curriculum of `curriculum_epochs` epochs: the crop and the
 /// jitter grow linearly from none (a clean pair) to `target`'s, reached at epoch
 /// `curriculum_epochs` and kept afterwards. 0 epochs = `target` from the start.
-PairProtocol curriculumProtocol(const PairProtocol& target, int epoch, int curriculum_epochs);
+PairProtocol curriculumProtocol(const PairProtocol& target, int epoch, int curriculum_epochs,
+                                double curriculum_start = 0.0);
 
 /// The sampler of the object-level protocols: a random cloud of `clouds`, made into a pair by
 /// `protocol` (makePair), eased by curriculumProtocol during the first `curriculum_epochs`.
 PairSampler objectPairSampler(std::vector<PointCloud> clouds, PairProtocol protocol,
-                              int curriculum_epochs = 0);
+                              int curriculum_epochs = 0, double curriculum_start = 0.0);
 
 /// `n` validation pairs from `clouds` (cycled) with `protocol`, from a fixed seed.
 std::vector<RegistrationPair> objectValidationPairs(const std::vector<PointCloud>& clouds,

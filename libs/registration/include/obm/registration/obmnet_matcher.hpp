@@ -21,6 +21,8 @@ struct ObmNetMatcherParams {
   int num_points = 0;      ///< points sampled per cloud; 0 = what the model was trained with
   int threads = 2;         ///< LibTorch intra-op threads
   std::uint64_t seed = 0;  ///< seeds the network's point sampling
+  /// Neighbour-mean denoising of the network's inputs (0 = off; ObmNetRegistrar::Options).
+  int denoise_neighbors = 0;
   /// Transform the source by the initial guess before the network and compose the network's
   /// (small) correction with it: T = ΔT · T_init. The natural choice for odometry, where the
   /// constant-velocity guess is good; false = the network sees the raw clouds and T_init is
