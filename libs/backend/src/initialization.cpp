@@ -353,28 +353,32 @@ void initializeSpanningTree(PoseGraph& g, bool skip_loops) {
   for (auto& v : adj)  // odometry edges first
     std::stable_sort(v.begin(), v.end(),
                      [&](const Adj& x, const Adj& y) { return !t.loop[x.edge] && t.loop[y.edge]; });
-  // 0-1 BFS: cost 0 through odometry edges when `skip_loops` (the tree follows the trajectory and
-  // uses as few loop edges as possible), otherwise plain breadth-first (fewest hops).
-  std::vector<int> dist(n, std::numeric_limits<int>::max()), parent_edge(n, -1), parent(n, -1);
-  std::vector<int> order;
-  order.reserve(n);
+  // 0-1 BFS, a node's parent fixed when the node is first taken from the queue. With
+  // `skip_loops` odometry edges cost 0 and go to the front: each odometry-connected part of the
+  // trajectory is flooded along its own odometry from the first node reached, before any other
+  // loop edge into it is considered, so the tree crosses as few loop edges as possible and never
+  // uses a loop edge inside a part (where the chain is broken, one loop edge bridges the gap).
+  // Without `skip_loops`: plain breadth-first (fewest hops).
+  struct Item {
+    int node, parent, edge;
+  };
+  std::vector<int> parent_edge(n, -1), parent(n, -1);
+  std::vector<char> done(n, 0);
   for (int root : t.root) {
-    std::deque<int> dq{root};
-    dist[root] = 0;
+    std::deque<Item> dq{{root, -1, -1}};
     while (!dq.empty()) {
-      const int u = dq.front();
+      const Item it = dq.front();
       dq.pop_front();
-      for (const Adj& a : adj[u]) {
-        const int w = (skip_loops && !t.loop[a.edge]) ? 0 : 1;
-        if (dist[u] + w < dist[a.other]) {
-          dist[a.other] = dist[u] + w;
-          parent_edge[a.other] = a.edge;
-          parent[a.other] = u;
-          if (w == 0)
-            dq.push_front(a.other);
-          else
-            dq.push_back(a.other);
-        }
+      if (done[it.node]) continue;
+      done[it.node] = 1;
+      parent[it.node] = it.parent;
+      parent_edge[it.node] = it.edge;
+      for (const Adj& a : adj[it.node]) {
+        if (done[a.other]) continue;
+        if (skip_loops && !t.loop[a.edge])
+          dq.push_front({a.other, it.node, a.edge});
+        else
+          dq.push_back({a.other, it.node, a.edge});
       }
     }
   }

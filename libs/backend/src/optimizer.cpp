@@ -519,7 +519,7 @@ struct Optimizer::Impl {
     PoseGraph best_graph;
     double best_cost = std::numeric_limits<double>::infinity();
     std::string best_name;
-    const int rounds = auto_dcs_mode ? 4 : 1;
+    const int rounds = auto_dcs_mode ? 8 : 1;
     for (int round = 0; round < rounds; ++round) {
       if (round > 0) {
         // Re-calibrate Φ on the residuals of the best solution so far (see above).
@@ -540,13 +540,18 @@ struct Optimizer::Impl {
         OBM_LOG_INFO(kLog, "dcs:auto round " << round << ": median edge chi2 " << e2[e2.size() / 2]
                                              << ", phi " << phi << " -> " << next);
         if (std::abs(std::log(next / phi)) < std::log(1.5)) break;  // settled
-        phi = auto_phi = next;
+        // Graduated: Φ shrinks by at most 10× per round, each round warm-started from the last
+        // solution (graduated non-convexity). Dropping Φ at once to a small calibrated value
+        // makes "all loops switched off" the cheapest state from any start whose loops are not
+        // yet closed (ais2klinik: the odometry start won with every loop off).
+        phi = auto_phi = std::max(next, phi / 10.0);
         if (auto_dcs) auto_dcs->setPhi(phi);
         best_cost = std::numeric_limits<double>::infinity();
         best_name.clear();
+        starts = {Start::AsIs};
       }
       for (std::size_t k = 0; k < starts.size(); ++k) {
-        if (k > 0 || round > 0) graph = start_graph;
+        if (k > 0) graph = start_graph;
         Timer init_timer;
         const char* name = "as given";
         switch (starts[k]) {
