@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <memory>
 
 #include "obm/core/errors.hpp"
 #include "obm/core/mesh.hpp"
@@ -278,6 +279,44 @@ TEST(ModelFile, SaveLoadRoundTripAndClearErrors) {
     std::ofstream(dir + "/trunc.pt", std::ios::binary) << bytes.substr(0, bytes.size() / 2);
   }
   EXPECT_THROW(loadModel(dir + "/trunc.pt"), FormatError);
+}
+
+TEST(Trainer, WarmStartNeedsTheSameLayerShapesOnly) {
+  const std::string dir = obm::test::scratchDir("obmnet_warm_start");
+  ObmNetConfig c;
+  c.emb_dims = 16;
+  c.n_samples = 4;
+  c.n_iters = 1;
+  c.n_keypoints = 16;
+  torch::manual_seed(5);
+  ObmNet net(c);
+  ModelMeta meta;
+  meta.num_points = 64;
+  saveModel(dir + "/m.pt", net, meta);
+  auto trainerWith = [&](const ObmNetConfig& mc) {
+    TrainConfig tc;
+    tc.model = mc;
+    tc.protocol.num_points = 64;
+    tc.val_protocol.num_points = 64;
+    tc.val_pairs = 1;
+    std::vector<PointCloud> clouds{sphereCloud(128, 21)};
+    return std::make_unique<Trainer>(tc, clouds, clouds, dir + "/run");
+  };
+  // Wider neighbourhoods change no layer shape: the weights carry over.
+  ObmNetConfig wider = c;
+  wider.k1 = 12;
+  wider.k2 = 8;
+  EXPECT_NO_THROW(trainerWith(wider)->initializeFrom(dir + "/m.pt"));
+  // Another feature width does: a clear error naming the file.
+  ObmNetConfig other = c;
+  other.emb_dims = 32;
+  try {
+    trainerWith(other)->initializeFrom(dir + "/m.pt");
+    FAIL() << "a shape mismatch must be an error";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("m.pt"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("shape"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Registrar, AlignsAndReportsDiagnostics) {

@@ -339,14 +339,27 @@ ValidationScores Trainer::validate() {
 void Trainer::initializeFrom(const std::string& model_path) {
   ObmNet src = loadModel(model_path);
   Impl& I = *impl_;
-  if (src->config().toYaml() != I.model->config().toYaml())
-    throw ConfigError(model_path +
-                      ": its model configuration differs from the training config's `model:` "
-                      "(a warm start needs the same network)");
-  torch::NoGradGuard ng;
+  // Every parameter and buffer must exist with the same shape. Settings that change no shape
+  // (k1, k2, keypoints, samples, margins, iterations) may differ: the weights are per edge /
+  // per point, e.g. a model trained with k1 = 5 can be warm-started with k1 = 16 for noisy data.
   const auto from_p = src->named_parameters(true);
-  for (auto& kv : I.model->named_parameters(true)) kv.value().copy_(from_p[kv.key()]);
   const auto from_b = src->named_buffers(true);
+  auto check = [&](const std::string& key, const torch::Tensor& to,
+                   const torch::OrderedDict<std::string, torch::Tensor>& from) {
+    const torch::Tensor* f = from.find(key);
+    if (f == nullptr || f->sizes() != to.sizes())
+      throw ConfigError(model_path + ": '" + key +
+                        "' is missing or has another shape than in the training config's "
+                        "`model:` (a warm start needs the same layer sizes: emb_dims, dim, the "
+                        "module switches)");
+  };
+  for (const auto& kv : I.model->named_parameters(true)) check(kv.key(), kv.value(), from_p);
+  for (const auto& kv : I.model->named_buffers(true)) check(kv.key(), kv.value(), from_b);
+  if (src->config().toYaml() != I.model->config().toYaml())
+    OBM_LOG_WARN("obm-train", model_path << ": model settings differ from the training config's "
+                                             "(same layer sizes); the config's are used");
+  torch::NoGradGuard ng;
+  for (auto& kv : I.model->named_parameters(true)) kv.value().copy_(from_p[kv.key()]);
   for (auto& kv : I.model->named_buffers(true)) kv.value().copy_(from_b[kv.key()]);
   OBM_LOG_INFO("obm-train", "weights initialised from " << model_path);
 }

@@ -115,9 +115,11 @@ class Trainer {
 
   /// Warm start: copies the weights (parameters and batch-norm statistics) of the model file
   /// `model_path` into the model before run(); the optimiser starts fresh. For continuing a run
-  /// with another protocol or learning rate (e.g. from best.pt after the curriculum). Throws
-  /// ConfigError naming the file when its model configuration differs from the config's
-  /// `model:`, IoError / FormatError as loadModel. Ignored by run(resume = true) when a
+  /// with another protocol or learning rate (e.g. from best.pt after the curriculum). Settings that
+  /// change no layer shape (k1, k2, keypoints, samples, margins, iterations) may differ from the
+  /// file's (a warning is logged; the config's are used). Throws ConfigError naming the file and
+  /// the layer when a parameter is missing or has another shape (emb_dims, dim, module
+  /// switches), IoError / FormatError as loadModel. Ignored by run(resume = true) when a
   /// checkpoint exists (the checkpoint wins).
   void initializeFrom(const std::string& model_path);
 
