@@ -516,45 +516,21 @@ struct Optimizer::Impl {
     so.callbacks.push_back(&cb);
 
     const PoseGraph start_graph = starts.size() > 1 || auto_dcs_mode ? graph : PoseGraph{};
+    const std::vector<Start> first_starts = starts;
     PoseGraph best_graph;
     double best_cost = std::numeric_limits<double>::infinity();
     std::string best_name;
-    const int rounds = auto_dcs_mode ? 8 : 1;
-    for (int round = 0; round < rounds; ++round) {
-      if (round > 0) {
-        // Re-calibrate Φ on the residuals of the best solution so far (see above).
-        // Loop edges only: with the loops switched off the odometry chain fits exactly, so the
-        // odometry residuals would shrink Φ towards 0 round after round.
-        std::vector<double> e2;
-        if (graph.is3D()) {
-          for (const auto& e : graph.edges3)
-            if (e.is_loop) e2.push_back(edgeChi2(graph, e));
-        } else {
-          for (const auto& e : graph.edges2)
-            if (e.is_loop) e2.push_back(edgeChi2(graph, e));
-        }
-        if (e2.empty()) break;  // nothing to calibrate on (and nothing for DCS to act on)
-        std::nth_element(e2.begin(), e2.begin() + std::ptrdiff_t(e2.size() / 2), e2.end());
-        const double scale = std::max(e2[e2.size() / 2] / chi2_median, 1e-12);
-        const double next = scale * chi2_q99;
-        OBM_LOG_INFO(kLog, "dcs:auto round " << round << ": median edge chi2 " << e2[e2.size() / 2]
-                                             << ", phi " << phi << " -> " << next);
-        if (std::abs(std::log(next / phi)) < std::log(1.5)) break;  // settled
-        // Graduated: Φ shrinks by at most 10× per round, each round warm-started from the last
-        // solution (graduated non-convexity). Dropping Φ at once to a small calibrated value
-        // makes "all loops switched off" the cheapest state from any start whose loops are not
-        // yet closed (ais2klinik: the odometry start won with every loop off).
-        phi = auto_phi = std::max(next, phi / 10.0);
-        if (auto_dcs) auto_dcs->setPhi(phi);
-        best_cost = std::numeric_limits<double>::infinity();
-        best_name.clear();
-        starts = {Start::AsIs};
-      }
-      for (std::size_t k = 0; k < starts.size(); ++k) {
-        if (k > 0) graph = start_graph;
+    // Solves from each start in `list` (from the start graph, except an AsIs start, which
+    // continues from the current poses) and keeps the lowest robust objective in `graph`;
+    // `incumbent` = the current poses already compete with cost best_cost.
+    auto solveStarts = [&](const std::vector<Start>& list, bool incumbent) {
+      const bool compete = list.size() > 1 || incumbent;
+      if (incumbent) best_graph = graph;
+      for (std::size_t k = 0; k < list.size(); ++k) {
+        if (list[k] != Start::AsIs && (k > 0 || incumbent)) graph = start_graph;
         Timer init_timer;
         const char* name = "as given";
-        switch (starts[k]) {
+        switch (list[k]) {
           case Start::AsIs:
             break;
           case Start::File:
@@ -585,7 +561,7 @@ struct Optimizer::Impl {
         if (!cs.IsSolutionUsable())
           OBM_LOG_WARN(kLog, "solver failed from the " << name << " start: " << cs.message);
         OBM_LOG_DEBUG(kLog, cs.FullReport());
-        if (starts.size() > 1)
+        if (compete)
           OBM_LOG_INFO(kLog, "robust start '" << name << "': objective " << 2.0 * cs.final_cost
                                               << ", chi2 " << chi2(graph));
         if (cs.IsSolutionUsable() && (2.0 * cs.final_cost < best_cost || best_name.empty())) {
@@ -595,15 +571,60 @@ struct Optimizer::Impl {
           s.converged = cs.termination_type == ceres::CONVERGENCE;
           s.usable = true;
           s.message = cs.message;
-          if (starts.size() > 1) best_graph = graph;
+          if (compete) best_graph = graph;
         }
       }
-      if (starts.size() > 1 && !best_name.empty()) {
+      if (compete && !best_name.empty()) {
         graph = best_graph;
-        s.message =
-            "best of " + std::to_string(starts.size()) + " starts: " + best_name + "; " + s.message;
+        s.message = "best of " + std::to_string(list.size() + (incumbent ? 1 : 0)) +
+                    " starts: " + best_name + "; " + s.message;
+      }
+    };
+
+    const int rounds = auto_dcs_mode ? 8 : 1;
+    bool graduated = false;
+    for (int round = 0; round < rounds; ++round) {
+      if (round > 0) {
+        // Re-calibrate Φ on the residuals of the best solution so far (see above).
+        // Loop edges only: with the loops switched off the odometry chain fits exactly, so the
+        // odometry residuals would shrink Φ towards 0 round after round.
+        std::vector<double> e2;
+        if (graph.is3D()) {
+          for (const auto& e : graph.edges3)
+            if (e.is_loop) e2.push_back(edgeChi2(graph, e));
+        } else {
+          for (const auto& e : graph.edges2)
+            if (e.is_loop) e2.push_back(edgeChi2(graph, e));
+        }
+        if (e2.empty()) break;  // nothing to calibrate on (and nothing for DCS to act on)
+        std::nth_element(e2.begin(), e2.begin() + std::ptrdiff_t(e2.size() / 2), e2.end());
+        const double scale = std::max(e2[e2.size() / 2] / chi2_median, 1e-12);
+        const double next = scale * chi2_q99;
+        OBM_LOG_INFO(kLog, "dcs:auto round " << round << ": median edge chi2 " << e2[e2.size() / 2]
+                                             << ", phi " << phi << " -> " << next);
+        if (std::abs(std::log(next / phi)) < std::log(1.5)) break;  // settled
+        // Graduated: Φ shrinks by at most 10× per round, each round warm-started from the last
+        // solution (graduated non-convexity). Dropping Φ at once to a small calibrated value
+        // makes "all loops switched off" the cheapest state from any start whose loops are not
+        // yet closed (ais2klinik: the odometry start won with every loop off).
+        phi = auto_phi = std::max(next, phi / 10.0);
+        if (auto_dcs) auto_dcs->setPhi(phi);
+        best_cost = std::numeric_limits<double>::infinity();
+        best_name.clear();
+        graduated = true;
+        solveStarts({Start::AsIs}, false);
+      } else {
+        solveStarts(starts, false);
       }
     }  // rounds of dcs:auto
+    if (graduated && !best_name.empty()) {
+      // The graduated path starts from the first round's solution; where that one was dragged
+      // far by wrong loops (information understating the precision 10⁴-fold, as on
+      // parking-garage, lets every wrong loop in at the first Φ), fresh starts at the final Φ do
+      // better. Both are solutions at the same Φ: the lower robust objective wins.
+      best_name = "graduated";
+      solveStarts(first_starts, true);
+    }
     if (auto_dcs_mode) {
       s.message = "dcs:auto phi " + std::to_string(phi) + "; " + s.message;
       s.dcs_phi = phi;
