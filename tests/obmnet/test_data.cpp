@@ -41,6 +41,22 @@ TriangleMesh boxMesh(const std::string& name, float sx, float sy, float sz) {
   return m;
 }
 
+/// A small network (16 features, 4 samples, 1 iteration) saved to `path` with 64 points.
+ObmNet saveSmallModel(const std::string& path, std::uint64_t seed, int n_keypoints = 256) {
+  ObmNetConfig c;
+  c.emb_dims = 16;
+  c.n_samples = 4;
+  c.n_iters = 1;
+  c.n_keypoints = n_keypoints;
+  torch::manual_seed(seed);
+  ObmNet net(c);
+  ModelMeta meta;
+  meta.num_points = 64;
+  meta.description = "unit test";
+  saveModel(path, net, meta);
+  return net;
+}
+
 }  // namespace
 
 TEST(PairProtocol, CleanPairIsExactlyTheTransformedSource) {
@@ -237,16 +253,7 @@ TEST(ObjectSet, SplitIsByNameAndStable) {
 
 TEST(ModelFile, SaveLoadRoundTripAndClearErrors) {
   const std::string dir = obm::test::scratchDir("obmnet_model_file");
-  ObmNetConfig c;
-  c.emb_dims = 16;
-  c.n_samples = 4;
-  c.n_iters = 1;
-  torch::manual_seed(3);
-  ObmNet net(c);
-  ModelMeta meta;
-  meta.num_points = 64;
-  meta.description = "unit test";
-  saveModel(dir + "/m.pt", net, meta);
+  ObmNet net = saveSmallModel(dir + "/m.pt", 3);
   ModelMeta meta2;
   auto loaded = loadModel(dir + "/m.pt", &meta2);
   EXPECT_EQ(meta2.num_points, 64);
@@ -283,16 +290,7 @@ TEST(ModelFile, SaveLoadRoundTripAndClearErrors) {
 
 TEST(Trainer, WarmStartNeedsTheSameLayerShapesOnly) {
   const std::string dir = obm::test::scratchDir("obmnet_warm_start");
-  ObmNetConfig c;
-  c.emb_dims = 16;
-  c.n_samples = 4;
-  c.n_iters = 1;
-  c.n_keypoints = 16;
-  torch::manual_seed(5);
-  ObmNet net(c);
-  ModelMeta meta;
-  meta.num_points = 64;
-  saveModel(dir + "/m.pt", net, meta);
+  const ObmNetConfig c = saveSmallModel(dir + "/m.pt", 5, 16)->config();
   auto trainerWith = [&](const ObmNetConfig& mc) {
     TrainConfig tc;
     tc.model = mc;

@@ -79,7 +79,8 @@ PairProtocol PairProtocol::preset(const std::string& name) {
 
 PairProtocol PairProtocol::load(const ConfigNode& node) {
   node.checkKeys({"preset", "num_points", "max_angle_deg", "axis_angle", "max_translation",
-                  "partial_keep", "partial_far", "jitter_sigma", "jitter_clip", "jitter_uniform", "outliers"});
+                  "partial_keep", "partial_far", "jitter_sigma", "jitter_clip", "jitter_uniform",
+                  "outliers"});
   PairProtocol p;
   if (node.has("preset")) {
     try {
