@@ -16,13 +16,18 @@ namespace obm::apps {
 
 ObjectSourceConfig ObjectSourceConfig::load(const ConfigNode& node) {
   ObjectSourceConfig c;
-  node.checkKeys({"source", "dir", "objects", "unseen_categories"});
+  node.checkKeys({"source", "dir", "objects", "unseen_categories", "rgbd"});
   node.get("source", c.source);
   node.get("dir", c.dir);
   node.get("unseen_categories", c.unseen_categories);
-  if (c.source != "cgal" && c.source != "meshes" && c.source != "modelnet40")
+  if (c.source != "cgal" && c.source != "meshes" && c.source != "modelnet40" &&
+      c.source != "rgbd")
     throw ConfigError(node.where("source") + ": unknown source '" + c.source +
-                      "' (cgal, meshes, modelnet40; LiDAR scans: kitti)");
+                      "' (cgal, meshes, modelnet40, rgbd; LiDAR scans: kitti)");
+  if (c.source == "rgbd") {
+    if (!node.has("rgbd")) throw ConfigError(node.where("rgbd") + ": source rgbd needs an rgbd: map");
+    c.rgbd = RgbdFragmentOptions::load(node.child("rgbd"));
+  }
   if (c.source == "modelnet40" && c.dir.empty())
     throw ConfigError(node.where("dir") +
                       ": source modelnet40 needs the folder of modelnet40_ply_hdf5_2048");
@@ -87,6 +92,9 @@ obmnet::ObjectSet loadModelNet40(const ObjectSourceConfig& config) {
 
 obmnet::ObjectSet loadObjectSet(const ObjectSourceConfig& config) {
   if (config.source == "modelnet40") return loadModelNet40(config);
+  if (config.source == "rgbd")
+    return loadRgbdFragments(config.dir, config.rgbd, config.objects.keep_points,
+                             config.objects.seed);
   std::string dir = config.dir;
   if (dir.empty() && config.source == "cgal") dir = defaultCgalDir();
   if (!fs::is_directory(dir))

@@ -4,6 +4,7 @@
 /// YAML config. Shared by the tools; the sampling and splitting live in obm::obmnet.
 #include <string>
 
+#include "fragment_source.hpp"
 #include "obm/obmnet/object_set.hpp"
 
 namespace obm::apps {
@@ -15,6 +16,8 @@ struct ObjectSourceConfig {
   /// test_files.txt, *.h5): the first `objects.keep_points` points of each shape; the test group
   /// is the test files, the validation split a `objects.val_fraction` share of the training
   /// shapes (by index hash), so the test files are never seen in training.
+  /// rgbd: fragments of RGB-D sequences (fragment_source.hpp), split by sequence; `dir` is the
+  /// folder of the sequences and `rgbd:` the options.
   std::string source = "cgal";
   /// modelnet40 only: RIENet's "unseen" protocol — training / validation from the shapes with
   /// label < 20, test from those with label >= 20.
@@ -22,6 +25,7 @@ struct ObjectSourceConfig {
   std::string
       dir;  ///< mesh folder; empty with `cgal` = $OBM_CGAL_DATA, else the fetch script's cache
   obmnet::ObjectSetOptions objects;
+  RgbdFragmentOptions rgbd;  ///< source rgbd only
 
   static ObjectSourceConfig load(const ConfigNode& node);
 };

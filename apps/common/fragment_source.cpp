@@ -1,0 +1,188 @@
+#include "fragment_source.hpp"
+
+#include <cstdlib>
+#include <filesystem>
+#include <random>
+
+#include "obm/config/config_node.hpp"
+#include "obm/core/cloud_ops.hpp"
+#include "obm/core/errors.hpp"
+#include "obm/core/log.hpp"
+#include "obm/io/convert.hpp"
+#include "obm/io/rgbd.hpp"
+
+namespace fs = std::filesystem;
+
+namespace obm::apps {
+
+RgbdFragmentOptions RgbdFragmentOptions::load(const ConfigNode& node) {
+  RgbdFragmentOptions o;
+  node.checkKeys({"layout", "train_sequences", "val_sequences", "test_sequences",
+                  "fragment_frames", "frame_step", "test_frame_step", "stride", "min_depth", "max_depth", "voxel",
+                  "radius"});
+  node.get("layout", o.layout);
+  try {
+    io::parseRgbdLayout(o.layout);
+  } catch (const ConfigError& e) {
+    throw ConfigError(node.where("layout") + ": " + e.what());
+  }
+  node.get("train_sequences", o.train_sequences);
+  node.get("val_sequences", o.val_sequences);
+  node.get("test_sequences", o.test_sequences);
+  node.get("fragment_frames", o.fragment_frames);
+  node.get("frame_step", o.frame_step);
+  o.test_frame_step = o.frame_step;
+  node.get("test_frame_step", o.test_frame_step);
+  node.get("stride", o.stride);
+  node.get("min_depth", o.min_depth);
+  node.get("max_depth", o.max_depth);
+  node.get("voxel", o.voxel);
+  node.get("radius", o.radius);
+  if (o.train_sequences.empty())
+    throw ConfigError(node.where("train_sequences") + ": no training sequence");
+  if (o.fragment_frames < 1) throw ConfigError(node.where("fragment_frames") + ": must be >= 1");
+  if (o.frame_step < 1) throw ConfigError(node.where("frame_step") + ": must be >= 1");
+  if (o.test_frame_step < 1)
+    throw ConfigError(node.where("test_frame_step") + ": must be >= 1");
+  if (o.stride < 1) throw ConfigError(node.where("stride") + ": must be >= 1");
+  if (!(o.min_depth >= 0.0) || !(o.max_depth > o.min_depth))
+    throw ConfigError(node.where("max_depth") + ": need 0 <= min_depth < max_depth");
+  if (!(o.voxel >= 0.0)) throw ConfigError(node.where("voxel") + ": must be >= 0");
+  if (!(o.radius > 0.0)) throw ConfigError(node.where("radius") + ": must be > 0");
+  return o;
+}
+
+namespace {
+
+io::RgbdSequence openSequence(const std::string& path, io::RgbdLayout layout) {
+  if (!fs::is_directory(path)) throw IoError(path + ": RGB-D sequence folder not found");
+  switch (layout) {
+    case io::RgbdLayout::IclNuim:
+      return io::RgbdSequence::openIclNuim(path);
+    case io::RgbdLayout::SevenScenes:
+      return io::RgbdSequence::open7Scenes(path);
+    case io::RgbdLayout::Redwood:
+      return io::RgbdSequence::openRedwood(path);
+    case io::RgbdLayout::Tum:
+      break;
+  }
+  return io::RgbdSequence::openTum(path);
+}
+
+/// A sequence entry "[LAYOUT:]PATH": the layout prefix overrides the default layout.
+std::pair<io::RgbdLayout, std::string> splitLayout(const std::string& entry,
+                                                   const std::string& default_layout) {
+  const auto colon = entry.find(':');
+  if (colon != std::string::npos && colon > 0 && entry.find('/') > colon) {
+    const std::string prefix = entry.substr(0, colon);
+    try {
+      return {io::parseRgbdLayout(prefix), entry.substr(colon + 1)};
+    } catch (const ConfigError&) {
+      // not a layout: a path with a colon
+    }
+  }
+  return {io::parseRgbdLayout(default_layout), entry};
+}
+
+/// A sequence path: `$VAR/rest` or `${VAR}/rest` takes the environment variable (e.g.
+/// $OBM_SHARED_DATA for the real test data), an absolute path is kept, others are under `dir`.
+std::string resolve(const std::string& dir, const std::string& name) {
+  if (!name.empty() && name[0] == '$') {
+    const bool braced = name.size() > 1 && name[1] == '{';
+    const std::size_t end = braced ? name.find('}') : name.find('/');
+    const std::string var =
+        braced ? name.substr(2, end == std::string::npos ? std::string::npos : end - 2)
+               : name.substr(1, end == std::string::npos ? std::string::npos : end - 1);
+    const char* value = std::getenv(var.c_str());
+    if (value == nullptr || *value == '\0')
+      throw ConfigError("sequence '" + name + "': environment variable " + var + " is not set");
+    const std::size_t rest = braced ? (end == std::string::npos ? name.size() : end + 1)
+                                    : (end == std::string::npos ? name.size() : end);
+    return std::string(value) + name.substr(rest);
+  }
+  if (fs::path(name).is_absolute() || dir.empty()) return name;
+  return (fs::path(dir) / name).string();
+}
+
+/// Fragments of one sequence, appended to `out`.
+void addFragments(const std::string& dir, const std::string& entry, const RgbdFragmentOptions& o,
+                  int frame_step, int keep_points, std::uint64_t seed,
+                  std::vector<PointCloud>& out) {
+  const auto [layout, rel] = splitLayout(entry, o.layout);
+  const std::string path = resolve(dir, rel);
+  const auto seq = openSequence(path, layout);
+  const std::string name = fs::path(path).filename().string();
+  const auto n_frames = static_cast<int>(seq.size());
+  int made = 0, skipped = 0;
+  for (int first = 0; first + o.fragment_frames <= n_frames; first += frame_step) {
+    const auto& f0 = seq.frame(static_cast<std::size_t>(first));
+    PointCloud fused;
+    fused.frame_id = "camera";
+    for (int k = 0; k < o.fragment_frames; ++k) {
+      const auto i = static_cast<std::size_t>(first + k);
+      PointCloud c = seq.cloud(i, o.min_depth, o.max_depth, o.stride);
+      if (k > 0) {
+        const auto& fk = seq.frame(i);
+        if (!f0.has_pose || !fk.has_pose)
+          throw FormatError(path, 0,
+                            "frame " + std::to_string(i) +
+                                " has no ground-truth pose: fusing fragment_frames > 1 needs one");
+        // Fused in the fragment's first camera frame: T_first_k = T_world_first⁻¹ · T_world_k.
+        c.transform(f0.T_world_camera.inverse() * fk.T_world_camera);
+      }
+      fused.points.insert(fused.points.end(), c.points.begin(), c.points.end());
+    }
+    PointCloud v = o.voxel > 0.0 ? voxelDownsample(fused, o.voxel) : fused;
+    if (v.size() < static_cast<std::size_t>(keep_points)) {
+      ++skipped;
+      continue;
+    }
+    // The sample depends on the sequence, the frame and the seed only, not on the load order.
+    std::mt19937_64 rng(seed ^ (std::hash<std::string>{}(name) + 0x9e3779b97f4a7c15ull *
+                                                                   static_cast<std::uint64_t>(first)));
+    PointCloud frag = randomSubset(v, static_cast<std::size_t>(keep_points), rng);
+    frag.intensity.clear();
+    frag.colors.clear();
+    // RECIPE.md's 7Scenes normalisation: centred, max|v| = radius.
+    const Eigen::Vector3f c = frag.centroid();
+    float r = 0.0f;
+    for (auto& p : frag.points) {
+      p -= c;
+      r = std::max(r, p.norm());
+    }
+    if (!(r > 0.0f)) {
+      ++skipped;
+      continue;
+    }
+    const auto s = static_cast<float>(o.radius) / r;
+    for (auto& p : frag.points) p *= s;
+    frag.frame_id = name + ":" + std::to_string(first);
+    out.push_back(std::move(frag));
+    ++made;
+  }
+  if (skipped > 0)
+    OBM_LOG_WARN("fragments", path << ": " << skipped << " fragment(s) with fewer than "
+                                   << keep_points << " points after the " << o.voxel
+                                   << " m voxel grid skipped");
+  OBM_LOG_INFO("fragments", path << ": " << made << " fragments of " << o.fragment_frames
+                                 << " frame(s), every " << frame_step << " of " << n_frames);
+}
+
+}  // namespace
+
+obmnet::ObjectSet loadRgbdFragments(const std::string& dir, const RgbdFragmentOptions& options,
+                                    int keep_points, std::uint64_t seed) {
+  obmnet::ObjectSet set;
+  for (const auto& s : options.train_sequences)
+    addFragments(dir, s, options, options.frame_step, keep_points, seed, set.train);
+  for (const auto& s : options.val_sequences)
+    addFragments(dir, s, options, options.frame_step, keep_points, seed, set.val);
+  for (const auto& s : options.test_sequences)
+    addFragments(dir, s, options, options.test_frame_step, keep_points, seed, set.test);
+  if (set.train.empty())
+    throw IoError((dir.empty() ? std::string(".") : dir) +
+                  ": no training fragment with " + std::to_string(keep_points) + " points");
+  return set;
+}
+
+}  // namespace obm::apps

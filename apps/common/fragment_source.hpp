@@ -1,0 +1,53 @@
+#pragma once
+/// \file fragment_source.hpp
+/// Indoor fragments for the object-level tools (obm-train, obm-bench): RECIPE.md's 7Scenes
+/// protocol builds its pairs from depth-camera fragments — each fragment centred and scaled so
+/// that max|v| = 0.5, 2048 points, then the pose generator and a crop to 1536 points (the pair
+/// preset `indoor`). A fragment here is `fragment_frames` consecutive depth frames of an RGB-D
+/// sequence fused in the first frame's camera frame with the sequence's ground truth (one frame
+/// needs none), on a voxel grid, then `keep_points` random points. The `data:` map of a config
+/// with `source: rgbd`; the sequences may be TUM, ICL-NUIM, 7-Scenes or Redwood / Open3D folders
+/// (real, or what obm-sim writes).
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "obm/obmnet/object_set.hpp"
+
+namespace obm {
+class ConfigNode;
+}
+
+namespace obm::apps {
+
+struct RgbdFragmentOptions {
+  /// Default layout of the sequences: tum | iclnuim | 7scenes | redwood. An entry of the lists
+  /// below may name its own as a prefix, "redwood:PATH".
+  std::string layout = "tum";
+  /// Folders, relative to `dir` unless absolute; `$VAR/...` or `${VAR}/...` takes an environment
+  /// variable (e.g. $OBM_SHARED_DATA).
+  std::vector<std::string> train_sequences;
+  std::vector<std::string> val_sequences;    ///< model selection
+  std::vector<std::string> test_sequences;   ///< the unseen group of obm-bench
+  int fragment_frames = 1;  ///< depth frames fused into one fragment (> 1 needs ground truth)
+  int frame_step = 10;      ///< a fragment starts every frame_step frames
+  int test_frame_step = 10;  ///< the same for the test sequences (default: frame_step)
+  int stride = 2;           ///< every stride-th pixel row and column is back-projected
+  double min_depth = 0.3;   ///< [m]
+  double max_depth = 4.0;   ///< [m] (RGB-D depth is reliable to ~4 m)
+  double voxel = 0.01;      ///< [m] voxel grid of the fused fragment, before the random sample
+  double radius = 0.5;      ///< fragments are scaled so that max|v − centroid| = radius (RECIPE.md)
+
+  /// Reads the `rgbd:` map; unknown keys are errors naming the file.
+  static RgbdFragmentOptions load(const ConfigNode& node);
+};
+
+/// Fragments of every sequence of `options`, keep_points points each (`objects.keep_points` of the
+/// config), split by sequence: train / val / test. Fragments with fewer points after the voxel
+/// grid are skipped with a warning; frame_id is "SEQUENCE:FRAME". Throws IoError naming the
+/// folder when a sequence cannot be opened, FormatError when fusing frames without ground truth,
+/// and IoError when the training split ends up empty.
+obmnet::ObjectSet loadRgbdFragments(const std::string& dir, const RgbdFragmentOptions& options,
+                                    int keep_points, std::uint64_t seed);
+
+}  // namespace obm::apps
