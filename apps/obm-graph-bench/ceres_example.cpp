@@ -7,6 +7,7 @@
 #include <deque>
 #include <unordered_map>
 
+#include "obm/backend/blas_threads.hpp"
 #include "obm/core/timer.hpp"
 #include "peers.hpp"
 
@@ -83,6 +84,9 @@ struct AnglePlus {
 PeerResult solveCeresExample(const backend::PoseGraph& graph) {
   PeerResult res;
   res.solution = graph;
+  // The same BLAS threading as obm-graph's optimizer (blas_threads.hpp), so that the comparison
+  // measures the formulations and solver settings, not OpenMP spin-waits.
+  const backend::ScopedSingleThreadedBlas one_blas_thread;
   Timer timer;
   ceres::Problem problem;
   ceres::Solver::Options options;

@@ -1,6 +1,8 @@
 // Ceres pose-graph optimizer minimising g2o's χ² (see cost_functions.hpp for the residuals).
 #include "obm/backend/optimizer.hpp"
 
+#include "obm/backend/blas_threads.hpp"
+
 #include <ceres/ceres.h>
 
 #include <Eigen/SparseCholesky>
@@ -412,6 +414,7 @@ struct Optimizer::Impl {
   }
 
   Summary optimize() {
+    const ScopedSingleThreadedBlas one_blas_thread;  // see blas_threads.hpp
     Timer total;
     Summary s;
     graph.validate();
