@@ -116,7 +116,9 @@ int main(int argc, char** argv) {
                  "OBMNet model file (default: share/obmslam/models/obmnet_objects.pt)");
   app.add_option("--config", config_path,
                  "YAML with a `data:` map for the object set (default: the training config)");
-  app.add_option("--protocol", protocol, "clean | jitter | outliers | partial | partial_noise")
+  app.add_option("--protocol", protocol,
+                 "clean | jitter | outliers | partial | partial_noise | indoor | icl (indoor, icl: "
+                 "2048-point fragments, e.g. with --config config/obmnet/train_indoor.yaml)")
       ->capture_default_str();
   app.add_option("--jitter", jitter_sigma,
                  "per-point Gaussian jitter σ of both clouds, overriding the protocol's (clipped "
