@@ -124,7 +124,8 @@ int main(int argc, char** argv) {
                  "per-point Gaussian jitter σ of both clouds, overriding the protocol's (clipped "
                  "at 5σ of RIENet's 0.01/0.05 ratio); a sensitivity sweep");
   app.add_option("--group", group,
-                 "seen (training objects, new poses) | unseen (held-out test objects)")
+                 "seen (training objects, new poses) | val (the validation split) | unseen "
+                 "(held-out test objects)")
       ->capture_default_str();
   app.add_option("-n,--num-pairs", n_pairs, "generated pairs")->capture_default_str();
   app.add_option("--seed", seed, "seed of the generated pairs")->capture_default_str();
@@ -161,8 +162,9 @@ int main(int argc, char** argv) {
       if (config_path.empty()) config_path = apps::findConfigFile("obmnet/train_objects.yaml");
       const auto root = ConfigNode::loadFile(config_path);
       auto set = apps::loadObjectSet(apps::ObjectSourceConfig::load(root.child("data")));
-      const auto& objects = group == "seen" ? set.train : set.test;
-      if (group != "seen" && group != "unseen") throw ConfigError("--group must be seen or unseen");
+      if (group != "seen" && group != "val" && group != "unseen")
+        throw ConfigError("--group must be seen, val or unseen, not '" + group + "'");
+      const auto& objects = group == "seen" ? set.train : group == "val" ? set.val : set.test;
       if (objects.empty()) throw Error("no objects in the " + group + " group");
       auto proto = obmnet::PairProtocol::preset(protocol);
       if (jitter_sigma >= 0.0) {
