@@ -523,12 +523,37 @@ struct Optimizer::Impl {
     PoseGraph best_graph;
     double best_cost = std::numeric_limits<double>::infinity();
     std::string best_name;
+    // DCS: whether most loop edges are active (χ² ≤ 3Φ, i.e. DCS scale s ≥ 1/2) in the current
+    // poses. Like the median calibration of `dcs:auto`, the robust mode assumes most loops are
+    // right; a start that switches most of them off wins on the robust objective only because the
+    // odometry then fits exactly (kitti_05 at the calibrated Φ = 0.12: every loop off, the
+    // odometry-only poses), so such a solution is taken only when no start keeps most loops.
+    auto mostLoopsActive = [&]() {
+      if (opt.loop_loss.kind != LossKind::Dcs) return true;
+      std::size_t loops = 0, off = 0;
+      auto count = [&](const auto& edges) {
+        for (const auto& e : edges)
+          if (e.is_loop) {
+            ++loops;
+            off += edgeChi2(graph, e) > 3.0 * phi ? 1 : 0;
+          }
+      };
+      if (graph.is3D())
+        count(graph.edges3);
+      else
+        count(graph.edges2);
+      return 2 * off <= loops;
+    };
+    bool best_active = false;
     // Solves from each start in `list` (from the start graph, except an AsIs start, which
     // continues from the current poses) and keeps the lowest robust objective in `graph`;
     // `incumbent` = the current poses already compete with cost best_cost.
     auto solveStarts = [&](const std::vector<Start>& list, bool incumbent) {
       const bool compete = list.size() > 1 || incumbent;
-      if (incumbent) best_graph = graph;
+      if (incumbent) {
+        best_graph = graph;
+        best_active = mostLoopsActive();
+      }
       for (std::size_t k = 0; k < list.size(); ++k) {
         if (list[k] != Start::AsIs && (k > 0 || incumbent)) graph = start_graph;
         Timer init_timer;
@@ -567,8 +592,14 @@ struct Optimizer::Impl {
         if (compete)
           OBM_LOG_INFO(kLog, "robust start '" << name << "': objective " << 2.0 * cs.final_cost
                                               << ", chi2 " << chi2(graph));
-        if (cs.IsSolutionUsable() && (2.0 * cs.final_cost < best_cost || best_name.empty())) {
+        const bool active = compete ? mostLoopsActive() : true;
+        if (compete && !active)
+          OBM_LOG_INFO(kLog, "robust start '" << name << "' switches most loop edges off");
+        const bool better = best_name.empty() || (active && !best_active) ||
+                            (active == best_active && 2.0 * cs.final_cost < best_cost);
+        if (cs.IsSolutionUsable() && better) {
           best_cost = 2.0 * cs.final_cost;
+          best_active = active;
           best_name = name;
           s.init_chi2 = init_chi2;
           s.converged = cs.termination_type == ceres::CONVERGENCE;
