@@ -1,5 +1,6 @@
 #include "fragment_source.hpp"
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <random>
@@ -8,6 +9,7 @@
 #include "obm/core/cloud_ops.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
+#include "obm/core/mesh.hpp"
 #include "obm/io/convert.hpp"
 #include "obm/io/rgbd.hpp"
 
@@ -143,19 +145,14 @@ void addFragments(const std::string& dir, const std::string& entry, const RgbdFr
     PointCloud frag = randomSubset(v, static_cast<std::size_t>(keep_points), rng);
     frag.intensity.clear();
     frag.colors.clear();
-    // RECIPE.md's 7Scenes normalisation: centred, max|v| = radius.
-    const Eigen::Vector3f c = frag.centroid();
-    float r = 0.0f;
-    for (auto& p : frag.points) {
-      p -= c;
-      r = std::max(r, p.norm());
-    }
-    if (!(r > 0.0f)) {
+    // RECIPE.md's 7Scenes normalisation: centred, max|v| = radius (a fragment whose points all
+    // coincide cannot be scaled and is skipped).
+    normalizeToSphere(frag, static_cast<float>(o.radius));
+    if (std::all_of(frag.points.begin(), frag.points.end(),
+                    [](const Eigen::Vector3f& p) { return p.isZero(); })) {
       ++skipped;
       continue;
     }
-    const auto s = static_cast<float>(o.radius) / r;
-    for (auto& p : frag.points) p *= s;
     frag.frame_id = name + ":" + std::to_string(first);
     out.push_back(std::move(frag));
     ++made;
