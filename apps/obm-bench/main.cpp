@@ -4,8 +4,11 @@
 #include <cstdio>
 #include <iostream>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include "../common/object_source.hpp"
+#include "../common/scan_source.hpp"
 #include "../common/paths.hpp"
 #include "bench.hpp"
 #include "obm/config/config_node.hpp"
@@ -38,12 +41,13 @@ bench::Method obmnetMethod(const std::string& name, const std::string& model, in
 }
 
 /// Point-to-plane ICP for unit-sphere objects: 0.1 correspondence gate annealed from 0.5, Huber
-/// kernel at 0.02, up to 60 iterations.
-IcpParams objectIcpParams() {
+/// kernel at 0.02, up to 60 iterations. `unit` scales every length for data in other units (the
+/// KITTI protocol's sparse 1024-point sweeps use unit = 20 m: a 2 m gate, 0.4 m kernel).
+IcpParams objectIcpParams(double unit) {
   IcpParams p;
-  p.initial_max_correspondence_distance = 0.5;
-  p.max_correspondence_distance = 0.1;
-  p.kernel_scale = 0.02;
+  p.initial_max_correspondence_distance = 0.5 * unit;
+  p.max_correspondence_distance = 0.1 * unit;
+  p.kernel_scale = 0.02 * unit;
   p.normal_neighbors = 10;
   p.max_iterations = 60;
   p.min_correspondences = 20;
@@ -51,15 +55,15 @@ IcpParams objectIcpParams() {
   return p;
 }
 
-ConfidenceParams objectConfidenceParams() {
+ConfidenceParams objectConfidenceParams(double unit) {
   ConfidenceParams c;
-  c.inlier_threshold = 0.05;
-  c.min_sigma = 0.001;
+  c.inlier_threshold = 0.05 * unit;
+  c.min_sigma = 0.001 * unit;
   return c;
 }
 
-bench::Method icpMethod() {
-  auto m = std::make_shared<IcpMatcher>(objectIcpParams(), objectConfidenceParams());
+bench::Method icpMethod(double unit) {
+  auto m = std::make_shared<IcpMatcher>(objectIcpParams(unit), objectConfidenceParams(unit));
   return {"icp", [m](const PointCloud& s, const PointCloud& t) {
             return m->match(s, t, Isometry3d::Identity()).T_target_source;
           }};
@@ -68,14 +72,14 @@ bench::Method icpMethod() {
 /// The refinement after the network: the same ICP without the coarse start. The network leaves a
 /// few degrees (≈ 0.05 at the unit sphere's surface), well inside the final 0.1 gate; a 0.5 start
 /// gate would pair the parts outside the overlap of partial pairs and pull the pose off.
-IcpParams objectRefineIcpParams() {
-  IcpParams p = objectIcpParams();
+IcpParams objectRefineIcpParams(double unit) {
+  IcpParams p = objectIcpParams(unit);
   p.initial_max_correspondence_distance = p.max_correspondence_distance;
   return p;
 }
 
 bench::Method obmnetIcpMethod(const std::string& model, int threads, int num_points,
-                              int denoise) {
+                              int denoise, double unit) {
   ObmNetMatcherParams p;
   p.denoise_neighbors = denoise;
   p.model_path = model;
@@ -84,10 +88,20 @@ bench::Method obmnetIcpMethod(const std::string& model, int threads, int num_poi
   p.pre_align = false;
   p.keep_init_if_better = false;
   auto m =
-      std::make_shared<ObmNetIcpMatcher>(p, objectRefineIcpParams(), objectConfidenceParams());
+      std::make_shared<ObmNetIcpMatcher>(p, objectRefineIcpParams(unit), objectConfidenceParams(unit));
   return {"obmnet+icp", [m](const PointCloud& s, const PointCloud& t) {
             return m->match(s, t, Isometry3d::Identity()).T_target_source;
           }};
+}
+
+bench::Open3dParams scaledOpen3dParams(double unit) {
+  bench::Open3dParams p;
+  p.voxel *= unit;
+  p.normal_radius *= unit;
+  p.feature_radius *= unit;
+  p.icp_max_distance *= unit;
+  p.ransac_max_distance *= unit;
+  return p;
 }
 
 }  // namespace
@@ -107,7 +121,8 @@ int main(int argc, char** argv) {
   std::string protocol = "clean", group = "unseen";
   int n_pairs = 200, threads = 2, num_points = -1, denoise = 0;
   std::uint64_t seed = 1;
-  double recall_deg = 1.0, recall_trans = 0.1, jitter_sigma = -1.0;
+  double recall_deg = 1.0, recall_trans = 0.1, jitter_sigma = -1.0, unit = 0.0;
+  std::vector<std::string> sequences;
   bool quiet = false;
   app.add_option("--pairs", pairs_dir, "score the pairs in this folder instead of generated ones");
   app.add_option("--json", json_out, "write the results as JSON");
@@ -117,8 +132,10 @@ int main(int argc, char** argv) {
   app.add_option("--config", config_path,
                  "YAML with a `data:` map for the object set (default: the training config)");
   app.add_option("--protocol", protocol,
-                 "clean | jitter | outliers | partial | partial_noise | indoor | icl (indoor, icl: "
-                 "2048-point fragments, e.g. with --config config/obmnet/train_indoor.yaml)")
+                 "clean | jitter | outliers | partial | partial_noise | indoor | icl | kitti (indoor, "
+                 "icl: 2048-point fragments, e.g. with --config config/obmnet/train_indoor.yaml; "
+                 "kitti: RECIPE.md's (i, i+10) LiDAR pairs of --sequence folders, see "
+                 "config/obmnet/train_lidar.yaml)")
       ->capture_default_str();
   app.add_option("--jitter", jitter_sigma,
                  "per-point Gaussian jitter σ of both clouds, overriding the protocol's (clipped "
@@ -132,6 +149,12 @@ int main(int argc, char** argv) {
   app.add_option("--methods", methods_arg, "comma-separated subset (default: all available)");
   app.add_option("--ablation", ablation,
                  "comma-separated model files: one row per model (OS/BP/NMM variants)");
+  app.add_option("--sequence", sequences,
+                 "kitti protocol: a KITTI odometry folder with poses.txt (repeatable); default: the "
+                 "config's val_sequences with --group val");
+  app.add_option("--unit", unit,
+                 "length [cloud units] that scales the ICP and Open3D peers' distances, which are "
+                 "set for unit-sphere objects (default: 1; 20 for the kitti protocol, in metres)");
   app.add_option("--recall-deg", recall_deg, "recall: RRE below this [deg]")->capture_default_str();
   app.add_option("--recall-trans", recall_trans, "recall: RTE below this [units]")
       ->capture_default_str();
@@ -152,12 +175,40 @@ int main(int argc, char** argv) {
 
   try {
     setLogLevel(parseLogLevel(log_level));
-    if (model.empty()) model = apps::findShareFile("models/obmnet_objects.pt");
+    if (model.empty())
+      model = apps::findShareFile(protocol == "kitti" ? "models/obmnet_lidar.pt"
+                                                      : "models/obmnet_objects.pt");
     std::vector<obmnet::RegistrationPair> pairs;
     std::string info;
     if (!pairs_dir.empty()) {
       pairs = bench::readPairFolder(pairs_dir);
       info = "pairs from " + pairs_dir;
+    } else if (protocol == "kitti") {
+      // RECIPE.md's KITTI protocol: pairs (i, i + frame_gap) of sweeps, each voxelised and sampled
+      // to the config's points, scored against the sequences' ground truth.
+      if (config_path.empty()) config_path = apps::findConfigFile("obmnet/train_lidar.yaml");
+      const auto root = ConfigNode::loadFile(config_path);
+      auto scans = apps::ScanSourceConfig::load(root.child("data"));
+      if (!sequences.empty()) {
+        scans.val_sequences = sequences;
+      } else if (group != "val") {
+        throw ConfigError("--protocol kitti: give the test sequences with --sequence DIR (the "
+                          "config's val_sequences are used only with --group val)");
+      }
+      int scan_points = 1024;
+      root.child("train").child("pairs").get("num_points", scan_points);
+      pairs = apps::scanValidationPairs(scans, scan_points, n_pairs, seed);
+      if (num_points < 0) num_points = scan_points;
+      if (unit <= 0.0) unit = 20.0;
+      if (!app.count("--recall-deg")) recall_deg = 5.0;  // RIENet's KITTI recall: 5° and 2 m
+      if (!app.count("--recall-trans")) recall_trans = 2.0;
+      std::string names;
+      for (const auto& q : scans.val_sequences) names += (names.empty() ? "" : ", ") + q;
+      std::ostringstream os;
+      os << "protocol kitti (i, i+" << scans.frame_gap << "), " << pairs.size() << " pairs of "
+         << names << ", " << scan_points << " points per sweep after a " << scans.voxel
+         << " m voxel grid, seed " << seed;
+      info = os.str();
     } else {
       if (config_path.empty()) config_path = apps::findConfigFile("obmnet/train_objects.yaml");
       const auto root = ConfigNode::loadFile(config_path);
@@ -189,6 +240,7 @@ int main(int argc, char** argv) {
       info = os.str();
     }
     if (num_points < 0) num_points = 0;  // --pairs: as the model was trained
+    if (unit <= 0.0) unit = 1.0;
     if (!write_pairs.empty()) bench::writePairFolder(write_pairs, pairs);
 
     std::vector<bench::Method> methods;
@@ -197,9 +249,9 @@ int main(int argc, char** argv) {
         methods.push_back(obmnetMethod(m, m, threads, num_points, denoise));
     } else {
       methods.push_back(obmnetMethod("obmnet", model, threads, num_points, denoise));
-      methods.push_back(obmnetIcpMethod(model, threads, num_points, denoise));
-      methods.push_back(icpMethod());
-      for (auto& m : bench::open3dMethods(bench::Open3dParams{})) methods.push_back(std::move(m));
+      methods.push_back(obmnetIcpMethod(model, threads, num_points, denoise, unit));
+      methods.push_back(icpMethod(unit));
+      for (auto& m : bench::open3dMethods(scaledOpen3dParams(unit))) methods.push_back(std::move(m));
     }
     if (!methods_arg.empty()) {
       const auto keep = splitList(methods_arg);

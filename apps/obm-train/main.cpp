@@ -7,10 +7,13 @@
 #include <cstdio>
 #include <iostream>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "../common/object_source.hpp"
 #include "../common/scan_source.hpp"
 #include "obm/config/config_node.hpp"
+#include "obm/config/overrides.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
 #include "obm/obmnet/trainer.hpp"
@@ -33,6 +36,7 @@ int main(int argc, char** argv) {
   int threads = 0, epochs = 0, measure = 0, overfit = 0, overfit_epoch = 0, batch = 0;
   double max_hours = -1.0;
   std::string log_level = "info";
+  std::vector<std::string> overrides;
   app.add_option("-c,--config", config_path, "training config (YAML: model, train, data)")
       ->required()
       ->check(CLI::ExistingFile);
@@ -56,12 +60,16 @@ int main(int argc, char** argv) {
       "--overfit-epoch", overfit_epoch,
       "curriculum level of the --overfit batch (default: the last epoch = the full protocol)");
   app.add_option("--batch-size", batch, "override train.batch_size");
+  app.add_option("--set", overrides,
+                 "override any config key, repeatable: --set model.use_nmm=false --set train.lr=5e-4 "
+                 "(the value is YAML; OUT/config.yaml records the result)");
   app.add_option("--log-level", log_level, "debug|info|warn|error")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   try {
     obm::setLogLevel(obm::parseLogLevel(log_level));
-    const auto root = obm::ConfigNode::loadFile(config_path);
+    auto root = obm::ConfigNode::loadFile(config_path);
+    obm::applyOverrides(root, overrides);
     auto cfg = obm::obmnet::TrainConfig::load(root);
     if (threads > 0) cfg.threads = threads;
     if (epochs > 0) cfg.epochs = epochs;

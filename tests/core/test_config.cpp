@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include "obm/config/config_node.hpp"
+#include "obm/config/overrides.hpp"
 
 using namespace obm;
 
@@ -30,4 +31,40 @@ TEST(Config, OptionalRequiredAndUnknownKeys) {
   EXPECT_THROW(c.child("sub").required<int>("b"), ConfigError);  // 0.5 is not an int
   EXPECT_THROW(ConfigNode::loadFile("/nonexistent.yaml"), IoError);
   EXPECT_THROW(ConfigNode::fromString("a: [1, 2\n", "bad.yaml"), ConfigError);
+}
+
+TEST(ConfigOverrides, SetsNestedValuesAndCreatesMaps) {
+  auto c = ConfigNode::fromString("model:\n  use_nmm: true\n  k1: 5\ntrain:\n  lr: 0.001\n",
+                                  "o.yaml");
+  applyOverrides(c, {"model.use_nmm=false", "model.k1=16", "train.lr_steps=[12, 20]",
+                     "data.objects.seed=3"});
+  bool nmm = true;
+  int k1 = 0, seed = 0;
+  std::vector<int> steps;
+  c.child("model").get("use_nmm", nmm);
+  c.child("model").get("k1", k1);
+  c.child("train").get("lr_steps", steps);
+  c.child("data").child("objects").get("seed", seed);
+  EXPECT_FALSE(nmm);
+  EXPECT_EQ(k1, 16);
+  EXPECT_EQ(steps, (std::vector<int>{12, 20}));
+  EXPECT_EQ(seed, 3);
+  double lr = 0;
+  c.child("train").get("lr", lr);
+  EXPECT_DOUBLE_EQ(lr, 0.001);  // untouched
+}
+
+TEST(ConfigOverrides, BadAssignmentsNameTheAssignment) {
+  auto c = ConfigNode::fromString("model:\n  k1: 5\n", "o.yaml");
+  for (const std::string bad : {"model.k1", "=3", "model..k1=3", "model.k1.x=3", "model.k1=[1,"}) {
+    try {
+      applyOverride(c, bad);
+      FAIL() << bad;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
+    }
+  }
+  int k1 = 0;
+  c.child("model").get("k1", k1);
+  EXPECT_EQ(k1, 5);  // failed overrides change nothing
 }

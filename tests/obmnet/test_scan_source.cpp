@@ -1,0 +1,139 @@
+// LiDAR scan pairs of obm-train / obm-bench (apps/common/scan_source): RECIPE.md's KITTI (i, i+gap)
+// protocol on the 6 real HDL-64 sweeps of the shared data, laid out as a KITTI odometry folder
+// (velodyne/ linked in place, calib and the first poses / times of sequence 00 beside them).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+
+#include "../../apps/common/scan_source.hpp"
+#include "obm/config/config_node.hpp"
+#include "obm/core/errors.hpp"
+#include "obm/io/kitti.hpp"
+#include "test_data.hpp"
+
+using namespace obm;
+namespace fs = std::filesystem;
+
+namespace {
+
+void copyFirstLines(const std::string& from, const std::string& to, int n) {
+  std::ifstream in(from);
+  std::ofstream out(to);
+  std::string line;
+  for (int i = 0; i < n && std::getline(in, line); ++i) out << line << "\n";
+}
+
+/// DIR/seq/{velodyne/*.bin → the shared sweeps, calib.txt, times.txt, poses.txt (if `poses`)}.
+std::string makeSequence(const std::string& dir, const std::string& name, bool poses) {
+  const std::string data = test::sharedDataDir() + "/kitti";
+  const fs::path seq = fs::path(dir) / name;
+  fs::create_directories(seq / "velodyne");
+  for (int i = 0; i < 6; ++i) {
+    const std::string f = "00000" + std::to_string(i) + ".bin";
+    fs::create_symlink(fs::absolute(data + "/hdl64_sample/" + f), seq / "velodyne" / f);
+  }
+  fs::copy_file(data + "/calib/00.txt", seq / "calib.txt");
+  copyFirstLines(data + "/times/00.txt", (seq / "times.txt").string(), 6);
+  if (poses) copyFirstLines(data + "/poses/00.txt", (seq / "poses.txt").string(), 6);
+  return seq.string();
+}
+
+apps::ScanSourceConfig config(const std::string& dir) {
+  return apps::ScanSourceConfig::load(ConfigNode::fromString(
+      "source: kitti\ndir: " + dir +
+          "\nsequences: [train]\nval_sequences: [val]\nframe_gap: 2\nvoxel: 0.3\n"
+          "min_range: 2.0\nmax_range: 40.0\n",
+      "scan.yaml"));
+}
+
+}  // namespace
+
+TEST(ScanSource, ValidationPairsAreEvenlySpacedWithTheLidarGroundTruth) {
+  OBM_REQUIRE_SHARED_DATA("kitti/hdl64_sample/000005.bin");
+  const std::string dir = test::scratchDir("scan_source_val");
+  makeSequence(dir, "train", false);
+  const std::string val = makeSequence(dir, "val", true);
+  const auto cfg = config(dir);
+  const auto pairs = apps::scanValidationPairs(cfg, 512, 4, 7);
+  ASSERT_EQ(pairs.size(), 4u);
+  const io::KittiSequence seq(val);
+  ASSERT_TRUE(seq.hasGroundTruth());
+  const auto& gt = seq.groundTruthLidar();
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    // 6 sweeps, gap 2: i = 0, 1, 2, 3 spread evenly; source = i + 2, target = i.
+    const std::size_t i = k, j = k + 2;
+    EXPECT_EQ(pairs[k].name, "val:" + std::to_string(j) + "->" + std::to_string(i));
+    const Isometry3d expected = gt[i].inverse() * gt[j];
+    EXPECT_LT((pairs[k].T_target_source.matrix() - expected.matrix()).norm(), 1e-9);
+    for (const auto* c : {&pairs[k].source, &pairs[k].target}) {
+      EXPECT_EQ(c->size(), 512u);
+      for (std::size_t p = 0; p < c->size(); ++p) {
+        const double r = c->points[p].norm();
+        ASSERT_TRUE(r >= 2.0 - 1e-4 && r <= 40.0 + 1e-4) << "range crop: " << r;
+      }
+    }
+  }
+  // Fixed seed: the same pairs again.
+  const auto again = apps::scanValidationPairs(cfg, 512, 4, 7);
+  for (std::size_t k = 0; k < pairs.size(); ++k)
+    EXPECT_EQ(again[k].source.points, pairs[k].source.points);
+}
+
+TEST(ScanSource, CurriculumStartsWithSelfPairsAndEndsWithRealPairs) {
+  OBM_REQUIRE_SHARED_DATA("kitti/hdl64_sample/000005.bin");
+  const std::string dir = test::scratchDir("scan_source_sampler");
+  makeSequence(dir, "train", false);
+  makeSequence(dir, "val", true);
+  auto sampler = apps::scanPairSampler(config(dir), 256, 4);
+  std::mt19937_64 rng(3);
+  for (int n = 0; n < 3; ++n) {
+    // Epoch 1: every pair is one sampled sweep and a made-up motion of it, so the motion maps the
+    // source exactly onto the target.
+    const auto p = sampler(rng, 1);
+    EXPECT_NE(p.name.find("(self)"), std::string::npos) << p.name;
+    EXPECT_DOUBLE_EQ(p.overlap, 1.0);
+    const PointCloud moved = p.source.transformed(p.T_target_source, p.target.frame_id);
+    for (std::size_t k = 0; k < moved.size(); ++k)
+      ASSERT_LT((moved.points[k] - p.target.points[k]).norm(), 1e-4f);
+  }
+  // Past the curriculum: real (i + 2 → i) pairs of the training sequence.
+  for (int n = 0; n < 3; ++n) {
+    const auto p = sampler(rng, 5);
+    EXPECT_EQ(p.name.find("(self)"), std::string::npos) << p.name;
+    EXPECT_EQ(p.name.rfind("train:", 0), 0u) << p.name;
+  }
+}
+
+TEST(ScanSource, ErrorsNameTheFolderOrTheKey) {
+  OBM_REQUIRE_SHARED_DATA("kitti/hdl64_sample/000005.bin");
+  const std::string dir = test::scratchDir("scan_source_errors");
+  makeSequence(dir, "train", false);
+  makeSequence(dir, "val", false);  // no poses.txt: validation cannot be scored
+  try {
+    apps::scanValidationPairs(config(dir), 256, 2, 1);
+    FAIL();
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("without ground truth"), std::string::npos) << e.what();
+  }
+  auto missing = config(dir);
+  missing.val_sequences = {"nowhere"};
+  try {
+    apps::scanValidationPairs(missing, 256, 2, 1);
+    FAIL();
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("nowhere"), std::string::npos) << e.what();
+  }
+  auto long_gap = config(dir);
+  long_gap.frame_gap = 6;
+  EXPECT_THROW(apps::scanPairSampler(long_gap, 256), FormatError);
+  try {
+    apps::ScanSourceConfig::load(
+        ConfigNode::fromString("source: kitti\nsequences: [a]\nframe_gapp: 3\n", "scan.yaml"));
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("scan.yaml: frame_gapp"), std::string::npos) << e.what();
+  }
+}
