@@ -323,3 +323,88 @@ TEST(Optimizer, OptionsLoadFromYaml) {
       ConfigNode::loadFile(std::string(OBM_SOURCE_DIR) + "/config/graph.yaml").child("optimizer"));
   EXPECT_EQ(shipped.init, InitMethod::Chordal);
 }
+
+namespace {
+
+/// A ring of `n` poses on a circle of radius 10 whose odometry overstates every turn by
+/// `bias_deg` (so the chain does not close), and 5 loop edges across the closing gap
+/// (node n−1−k → node k) that are exact (`wrong_loops` = false) or random.
+PoseGraph biasedRing(int n, double bias_deg, bool wrong_loops) {
+  PoseGraph g;
+  g.dimension = 2;
+  std::vector<Pose2> truth;
+  for (int i = 0; i < n; ++i) {
+    const double a = 2.0 * M_PI * i / n;
+    truth.emplace_back(10.0 * std::cos(a), 10.0 * std::sin(a), a + M_PI / 2);
+  }
+  const Eigen::Matrix3d info = Eigen::Vector3d(100.0, 100.0, 1e4).asDiagonal();
+  Pose2 chain = truth[0];
+  for (int i = 0; i < n; ++i) {
+    g.nodes2[i] = Node2{i, chain};
+    if (i + 1 == n) break;
+    Pose2 z = truth[i].inverse() * truth[i + 1];
+    z.theta += bias_deg * M_PI / 180.0;
+    g.edges2.push_back(Edge2{i, i + 1, z, info, {}, false});
+    chain = chain * z;
+  }
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int k = 0; k < 5; ++k) {
+    const int a = n - 1 - k, b = k;
+    Pose2 z = truth[a].inverse() * truth[b];
+    if (wrong_loops) z = Pose2(8.0 * u(rng), 8.0 * u(rng), M_PI * u(rng));
+    g.edges2.push_back(Edge2{a, b, z, info, {}, true});
+  }
+  g.fixed.insert(0);
+  return g;
+}
+
+std::size_t activeLoops(const PoseGraph& g, double phi) {
+  std::size_t on = 0;
+  for (const auto& e : g.edges2) on += e.is_loop && edgeChi2(g, e) <= 3.0 * phi ? 1 : 0;
+  return on;
+}
+
+}  // namespace
+
+// The robust mode assumes most loops are right. Here Φ is small against the odometry's 0.5° bias
+// per step, so the odometry start's solution — every loop switched off, the chain fitting exactly
+// (objective ≈ 15 here) — has a lower DCS objective than the chordal starts' solution that closes
+// the loops (≈ 29); the starts that keep the loops must still win.
+TEST(RobustStarts, AStartThatSwitchesMostLoopsOffLosesToOneThatKeepsThem) {
+  const double phi = 1.0;
+  const PoseGraph ring = biasedRing(40, 0.5, false);
+  Options opt;
+  opt.loop_loss = EdgeLoss{LossKind::Dcs, phi};
+  opt.robust_init = Options::RobustInit::Best;
+  Optimizer best(ring, opt);
+  const auto s = best.optimize();
+  ASSERT_TRUE(s.usable);
+  EXPECT_GE(activeLoops(best.graph(), phi), 3u) << s.message;
+
+  // The odometry start alone: its solution switches the loops off and has the lower objective,
+  // which is why the objective alone must not decide.
+  opt.robust_init = Options::RobustInit::Odometry;
+  Optimizer odo(ring, opt);
+  ASSERT_TRUE(odo.optimize().usable);
+  EXPECT_LE(activeLoops(odo.graph(), phi), 2u);
+}
+
+// When every start switches the loops off (they are all wrong), the lowest objective decides:
+// the odometry chain, untouched by the wrong loops.
+TEST(RobustStarts, WhenNoStartKeepsMostLoopsTheLowestObjectiveWins) {
+  const double phi = 1.0;
+  const PoseGraph ring = biasedRing(40, 1.5, true);
+  Options opt;
+  opt.loop_loss = EdgeLoss{LossKind::Dcs, phi};
+  Optimizer best(ring, opt);
+  const auto s = best.optimize();
+  ASSERT_TRUE(s.usable);
+  EXPECT_EQ(activeLoops(best.graph(), phi), 0u) << s.message;
+  double worst = 0.0;  // distance from the odometry chain (the file's poses)
+  for (const auto& [id, n] : best.graph().nodes2) {
+    const auto& o = ring.nodes2.at(id).T_world_node;
+    worst = std::max(worst, std::hypot(n.T_world_node.x - o.x, n.T_world_node.y - o.y));
+  }
+  EXPECT_LT(worst, 0.05) << s.message;
+}
