@@ -41,13 +41,15 @@ bench::Method obmnetMethod(const std::string& name, const std::string& model, in
 }
 
 /// Point-to-plane ICP for unit-sphere objects: 0.1 correspondence gate annealed from 0.5, Huber
-/// kernel at 0.02, up to 60 iterations. `unit` scales every length for data in other units (the
+/// kernel at 0.02, up to 60 iterations, then the point-to-point polish down to `polish` (0 = none;
+/// IcpParams explains when it helps). `unit` scales every length for data in other units (the
 /// KITTI protocol's sparse 1024-point sweeps use unit = 20 m: a 2 m gate, 0.4 m kernel).
-IcpParams objectIcpParams(double unit) {
+IcpParams objectIcpParams(double unit, double polish) {
   IcpParams p;
   p.initial_max_correspondence_distance = 0.5 * unit;
   p.max_correspondence_distance = 0.1 * unit;
   p.kernel_scale = 0.02 * unit;
+  p.polish_max_correspondence_distance = polish * unit;
   p.normal_neighbors = 10;
   p.max_iterations = 60;
   p.min_correspondences = 20;
@@ -62,8 +64,9 @@ ConfidenceParams objectConfidenceParams(double unit) {
   return c;
 }
 
-bench::Method icpMethod(double unit) {
-  auto m = std::make_shared<IcpMatcher>(objectIcpParams(unit), objectConfidenceParams(unit));
+bench::Method icpMethod(double unit, double polish) {
+  auto m =
+      std::make_shared<IcpMatcher>(objectIcpParams(unit, polish), objectConfidenceParams(unit));
   return {"icp", [m](const PointCloud& s, const PointCloud& t) {
             return m->match(s, t, Isometry3d::Identity()).T_target_source;
           }};
@@ -72,14 +75,14 @@ bench::Method icpMethod(double unit) {
 /// The refinement after the network: the same ICP without the coarse start. The network leaves a
 /// few degrees (≈ 0.05 at the unit sphere's surface), well inside the final 0.1 gate; a 0.5 start
 /// gate would pair the parts outside the overlap of partial pairs and pull the pose off.
-IcpParams objectRefineIcpParams(double unit) {
-  IcpParams p = objectIcpParams(unit);
+IcpParams objectRefineIcpParams(double unit, double polish) {
+  IcpParams p = objectIcpParams(unit, polish);
   p.initial_max_correspondence_distance = p.max_correspondence_distance;
   return p;
 }
 
 bench::Method obmnetIcpMethod(const std::string& model, int threads, int num_points,
-                              int denoise, double unit) {
+                              int denoise, double unit, double polish) {
   ObmNetMatcherParams p;
   p.denoise_neighbors = denoise;
   p.model_path = model;
@@ -88,7 +91,8 @@ bench::Method obmnetIcpMethod(const std::string& model, int threads, int num_poi
   p.pre_align = false;
   p.keep_init_if_better = false;
   auto m =
-      std::make_shared<ObmNetIcpMatcher>(p, objectRefineIcpParams(unit), objectConfidenceParams(unit));
+      std::make_shared<ObmNetIcpMatcher>(p, objectRefineIcpParams(unit, polish),
+                                             objectConfidenceParams(unit));
   return {"obmnet+icp", [m](const PointCloud& s, const PointCloud& t) {
             return m->match(s, t, Isometry3d::Identity()).T_target_source;
           }};
@@ -121,7 +125,7 @@ int main(int argc, char** argv) {
   std::string protocol = "clean", group = "unseen";
   int n_pairs = 200, threads = 2, num_points = -1, denoise = 0;
   std::uint64_t seed = 1;
-  double recall_deg = 1.0, recall_trans = 0.1, jitter_sigma = -1.0, unit = 0.0;
+  double recall_deg = 1.0, recall_trans = 0.1, jitter_sigma = -1.0, unit = 0.0, polish = -1.0;
   std::vector<std::string> sequences;
   bool quiet = false;
   app.add_option("--pairs", pairs_dir, "score the pairs in this folder instead of generated ones");
@@ -155,6 +159,10 @@ int main(int argc, char** argv) {
   app.add_option("--unit", unit,
                  "length [cloud units] that scales the ICP and Open3D peers' distances, which are "
                  "set for unit-sphere objects (default: 1; 20 for the kitti protocol, in metres)");
+  app.add_option("--icp-polish", polish,
+                 "gate [units of --unit] of the point-to-point polish after the project's ICP (0 = "
+                 "off); default 0.05 for the generated object protocols, whose two clouds carry "
+                 "the same surface samples, else 0 (see docs/obm-bench.md)");
   app.add_option("--recall-deg", recall_deg, "recall: RRE below this [deg]")->capture_default_str();
   app.add_option("--recall-trans", recall_trans, "recall: RTE below this [units]")
       ->capture_default_str();
@@ -241,6 +249,11 @@ int main(int argc, char** argv) {
     }
     if (num_points < 0) num_points = 0;  // --pairs: as the model was trained
     if (unit <= 0.0) unit = 1.0;
+    if (polish < 0.0) {
+      const bool shared_samples = pairs_dir.empty() && protocol != "kitti" &&
+                                  protocol != "indoor" && protocol != "icl";
+      polish = shared_samples ? 0.05 : 0.0;
+    }
     if (!write_pairs.empty()) bench::writePairFolder(write_pairs, pairs);
 
     std::vector<bench::Method> methods;
@@ -249,8 +262,8 @@ int main(int argc, char** argv) {
         methods.push_back(obmnetMethod(m, m, threads, num_points, denoise));
     } else {
       methods.push_back(obmnetMethod("obmnet", model, threads, num_points, denoise));
-      methods.push_back(obmnetIcpMethod(model, threads, num_points, denoise, unit));
-      methods.push_back(icpMethod(unit));
+      methods.push_back(obmnetIcpMethod(model, threads, num_points, denoise, unit, polish));
+      methods.push_back(icpMethod(unit, polish));
       for (auto& m : bench::open3dMethods(scaledOpen3dParams(unit))) methods.push_back(std::move(m));
     }
     if (!methods_arg.empty()) {

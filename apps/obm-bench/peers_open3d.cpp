@@ -43,11 +43,17 @@ Isometry3d toIso(const Eigen::Matrix4d& M) {
   return T;
 }
 
+/// Open3D ICP on the full clouds: point-to-plane, or Open3D's default point-to-point (whose
+/// minimum is unbiased when both clouds jitter the same samples, see IcpParams in the project).
 Eigen::Matrix4d icp(const Prepared& s, const Prepared& t, const Eigen::Matrix4d& init,
-                    const Open3dParams& p) {
+                    const Open3dParams& p, bool point_to_plane = true) {
+  const reg::ICPConvergenceCriteria stop(1e-7, 1e-7, 60);
+  if (!point_to_plane)
+    return reg::RegistrationICP(*s.full, *t.full, p.icp_max_distance, init,
+                                reg::TransformationEstimationPointToPoint(false), stop)
+        .transformation_;
   return reg::RegistrationICP(*s.full, *t.full, p.icp_max_distance, init,
-                              reg::TransformationEstimationPointToPlane(),
-                              reg::ICPConvergenceCriteria(1e-7, 1e-7, 60))
+                              reg::TransformationEstimationPointToPlane(), stop)
       .transformation_;
 }
 
@@ -87,6 +93,10 @@ std::vector<Method> open3dMethods(const Open3dParams& p) {
   m.push_back({"o3d_fgr+icp", [p](const PointCloud& s, const PointCloud& t) {
                  const auto S = prepare(s, p, true), T = prepare(t, p, true);
                  return toIso(icp(S, T, fgr(S, T, p), p));
+               }});
+  m.push_back({"o3d_fgr+icp_p2p", [p](const PointCloud& s, const PointCloud& t) {
+                 const auto S = prepare(s, p, true), T = prepare(t, p, true);
+                 return toIso(icp(S, T, fgr(S, T, p), p, false));
                }});
   m.push_back({"o3d_ransac", [p](const PointCloud& s, const PointCloud& t) {
                  return toIso(ransac(prepare(s, p, true), prepare(t, p, true), p));

@@ -215,6 +215,28 @@ IcpOutcome runIcp(const std::vector<Vector3f>& source_points, const PreparedTarg
     out.status = MatchStatus::NotConverged;
     out.message = "ICP: no convergence in " + std::to_string(params.max_iterations) + " iterations";
   }
+  if (params.polish_max_correspondence_distance > 0.0 &&
+      params.metric == IcpMetric::PointToPlane) {
+    // Point-to-point polish of the point-to-plane pose (see IcpParams), also when the plane stage
+    // ran out of iterations: on noisy clouds it tends to circle its biased minimum. Point-to-point
+    // converges linearly, so a polish that uses up its own iterations has still lowered its cost
+    // and is kept; the outcome is converged when either stage converged.
+    IcpParams polish = params;
+    polish.metric = IcpMetric::PointToPoint;
+    polish.initial_max_correspondence_distance = fine;
+    polish.max_correspondence_distance = std::min(fine, params.polish_max_correspondence_distance);
+    polish.polish_max_correspondence_distance = 0.0;
+    const IcpOutcome p = runIcp(source_points, target, T, polish);
+    if (p.status == MatchStatus::TooFewCorrespondences) return out;  // keep the plane result
+    out.T_target_source = p.T_target_source;
+    out.iterations += p.iterations;
+    out.num_correspondences = p.num_correspondences;
+    if (p.converged && !out.converged) {
+      out.converged = true;
+      out.status = MatchStatus::Ok;
+      out.message.clear();
+    }
+  }
   return out;
 }
 

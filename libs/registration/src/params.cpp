@@ -34,6 +34,9 @@ void IcpParams::validate() const {
             std::isfinite(initial_max_correspondence_distance),
         "initial_max_correspondence_distance must be >= 0");
   check(anneal_factor > 0.0 && anneal_factor < 1.0, "anneal_factor must be in (0, 1)");
+  check(polish_max_correspondence_distance >= 0.0 &&
+            std::isfinite(polish_max_correspondence_distance),
+        "polish_max_correspondence_distance must be >= 0");
   check(kernel_scale > 0.0 && std::isfinite(kernel_scale), "kernel_scale must be > 0");
   check(max_iterations >= 1, "max_iterations must be >= 1");
   check(translation_tolerance > 0.0, "translation_tolerance must be > 0");
@@ -46,7 +49,7 @@ IcpParams IcpParams::load(const ConfigNode& node) {
   IcpParams p;
   node.checkKeys({"source_voxel", "target_voxel", "normal_neighbors", "min_planarity",
                   "max_correspondence_distance", "initial_max_correspondence_distance",
-                  "anneal_factor", "metric", "point_to_point_fallback", "kernel", "kernel_scale",
+                  "anneal_factor", "polish_max_correspondence_distance", "metric", "point_to_point_fallback", "kernel", "kernel_scale",
                   "solver", "max_iterations", "translation_tolerance", "rotation_tolerance_deg",
                   "min_correspondences", "threads"});
   node.get("source_voxel", p.source_voxel);
@@ -56,6 +59,7 @@ IcpParams IcpParams::load(const ConfigNode& node) {
   node.get("max_correspondence_distance", p.max_correspondence_distance);
   node.get("initial_max_correspondence_distance", p.initial_max_correspondence_distance);
   node.get("anneal_factor", p.anneal_factor);
+  node.get("polish_max_correspondence_distance", p.polish_max_correspondence_distance);
   if (node.has("metric"))
     p.metric = parseIcpMetric(node.required<std::string>("metric"), node.where("metric"));
   node.get("point_to_point_fallback", p.point_to_point_fallback);

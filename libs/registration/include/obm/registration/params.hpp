@@ -41,6 +41,16 @@ struct IcpParams {
   /// the iterations settle, the gate shrinks by `anneal_factor` until it reaches the fine one.
   double initial_max_correspondence_distance = 0.0;
   double anneal_factor = 0.5;  ///< gate multiplier per annealing stage, in (0, 1)
+  /// [m] point-to-point polish after the point-to-plane run (0 = off): the pose is refined once
+  /// more with r = T·p − q, the gate annealed from `max_correspondence_distance` down to this.
+  /// PCA normals of jittered clouds tilt with the noise and move the point-to-plane minimum. When
+  /// both clouds carry the *same* surface samples with independent jitter (RIENet's object
+  /// protocols: the source is the target's points moved, cropped and jittered), the
+  /// point-to-point minimum is the true pose and the polish removes that drift (partial_noise,
+  /// ICP started at the true pose: 69.5 % → 95.5 % recall, docs/benchmarks.md). When each cloud
+  /// samples the surface on its own (LiDAR sweeps, RGB-D frames), nearest points are different
+  /// points and the polish is worse: off by default (tests/registration: both cases).
+  double polish_max_correspondence_distance = 0.0;
 
   // --- cost ----------------------------------------------------------------------------------
   IcpMetric metric = IcpMetric::PointToPlane;
