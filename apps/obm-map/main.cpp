@@ -5,6 +5,10 @@
 #include <csignal>
 #include <iostream>
 
+#include <string>
+#include <vector>
+
+#include "obm/config/overrides.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
 #include "obm/slam/mapping_app.hpp"
@@ -49,6 +53,10 @@ int main(int argc, char** argv) {
                  "stop after this many frames, 0 = all [default: 0]");
   app.add_option("--matcher", matcher,
                  "override matcher.type of the configuration: icp, obmnet or obmnet+icp");
+  std::vector<std::string> overrides;
+  app.add_option("--set", overrides,
+                 "override any configuration key, repeatable: --set loop_closure.min_travel=80 "
+                 "--set tracking.information_scale=0.5 (the value is YAML)");
   app.add_flag("--no-loops", no_loops, "disable loop closure (odometry only)");
   app.add_flag("--no-map", no_map, "do not build the OctoMap (map.bt, map.ot, map_topview.png)");
   app.add_flag("-q,--quiet", quiet, "no progress bar");
@@ -57,7 +65,9 @@ int main(int argc, char** argv) {
 
   try {
     obm::setLogLevel(obm::parseLogLevel(log_level));
-    obm::slam::SlamConfig cfg = obm::slam::SlamConfig::loadFile(config);
+    auto root = obm::ConfigNode::loadFile(config);
+    obm::applyOverrides(root, overrides);
+    obm::slam::SlamConfig cfg = obm::slam::SlamConfig::load(root);
     if (!matcher.empty()) {
       if (matcher != "icp" && matcher != "obmnet" && matcher != "obmnet+icp")
         throw obm::ConfigError("--matcher: unknown type '" + matcher +
