@@ -13,52 +13,6 @@ namespace obm::mapping::detail {
 
 namespace fs = std::filesystem;
 
-std::string toString(InputKind kind) {
-  switch (kind) {
-    case InputKind::Kitti:
-      return "kitti";
-    case InputKind::TumRgbd:
-      return "tum-rgbd";
-    case InputKind::IclNuim:
-      return "icl-nuim";
-    case InputKind::SevenScenes:
-      return "7scenes";
-    case InputKind::Redwood:
-      return "redwood";
-    case InputKind::Rawlog:
-      return "rawlog";
-  }
-  return "unknown";
-}
-
-InputKind detectInputKind(const std::string& input) {
-  const fs::path p(input);
-  if (!fs::exists(p)) throw IoError("input '" + input + "' does not exist");
-  if (fs::is_regular_file(p)) return InputKind::Rawlog;
-  if (!fs::is_directory(p)) throw IoError("input '" + input + "' is neither a folder nor a file");
-  if (fs::is_directory(p / "velodyne")) return InputKind::Kitti;
-  const auto endsWith = [](const std::string& s, const std::string& tail) {
-    return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
-  };
-  bool seven_scenes = false, icl_ground_truth = false;
-  std::error_code ec;
-  for (fs::directory_iterator it(p, ec), end; !ec && it != end; it.increment(ec)) {
-    const std::string name = it->path().filename().string();
-    if (name.rfind("frame-", 0) == 0 && endsWith(name, ".depth.png")) seven_scenes = true;
-    if (endsWith(name, ".gt.freiburg")) icl_ground_truth = true;
-  }
-  // ICL-NUIM's TUM-compatible release also has depth.txt; its *.gt.freiburg file tells it apart
-  // (the intrinsics differ from TUM's).
-  if (fs::is_regular_file(p / "associations.txt") || icl_ground_truth) return InputKind::IclNuim;
-  if (fs::is_regular_file(p / "depth.txt")) return InputKind::TumRgbd;
-  if (fs::is_directory(p / "depth")) return InputKind::Redwood;
-  if (seven_scenes) return InputKind::SevenScenes;
-  throw IoError("input '" + input +
-                "': no known layout (expected velodyne/ + calib.txt + times.txt for KITTI; "
-                "depth.txt, associations.txt, frame-*.depth.png or depth/ for RGB-D; or a "
-                ".rawlog file)");
-}
-
 namespace {
 
 class KittiSource : public FrameSource {

@@ -5,19 +5,13 @@
 #include <vector>
 
 #include "obm/core/point_cloud.hpp"
+#include "obm/io/dataset_kind.hpp"
 #include "obm/io/kitti.hpp"
 
 namespace obm::mapping::detail {
 
-/// The layouts obm-octomap reads.
-enum class InputKind { Kitti, TumRgbd, IclNuim, SevenScenes, Redwood, Rawlog };
-
-/// Name used in messages and summaries ("kitti", "tum-rgbd", ...).
-std::string toString(InputKind kind);
-
-/// Finds the layout of `input` from the files it holds. Throws IoError naming it when it does not
-/// exist or no known layout matches.
-InputKind detectInputKind(const std::string& input);
+/// The layouts obm-octomap reads (io::detectDatasetKind tells them apart).
+using InputKind = io::DatasetKind;
 
 class FrameSource {
  public:

@@ -131,8 +131,8 @@ ExportSummary OctomapExporter::run() {
   // ---- 1. Check everything before any work: outputs' folders, input layout, trajectory.
   checkOutputFolder(opt_.output, "--out");
   if (!opt_.png.empty()) checkOutputFolder(opt_.png, "--png");
-  const InputKind kind = detail::detectInputKind(opt_.input);
-  sum.input_kind = detail::toString(kind);
+  const InputKind kind = io::detectDatasetKind(opt_.input);
+  sum.input_kind = io::toString(kind);
   sum.trajectory_path = resolveTrajectory(opt_.trajectory, kind);
   const TrajectoryFormat detected = detectTrajectoryFormat(sum.trajectory_path);
   if (opt_.format != TrajectoryFormat::Auto && opt_.format != detected)

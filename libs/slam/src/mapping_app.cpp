@@ -127,7 +127,7 @@ RunSummary MappingApp::run() {
   // Everything that can be checked is checked before the first frame.
   checkWritable(options_.out_dir);
   auto source = detail::openFrameSource(options_.input, options_.ground_truth, cfg.input);
-  sum.input_kind = detail::toString(source->kind());
+  sum.input_kind = io::toString(source->kind());
   sum.frames_total = source->size();
   if (options_.max_frames > 0 && sum.frames_total > 0)
     sum.frames_total = std::min(sum.frames_total, options_.max_frames);

@@ -234,50 +234,12 @@ class RawlogSource : public FrameSource {
 
 }  // namespace
 
-std::string toString(InputKind kind) {
-  switch (kind) {
-    case InputKind::Kitti:
-      return "kitti";
-    case InputKind::TumRgbd:
-      return "tum-rgbd";
-    case InputKind::IclNuim:
-      return "icl-nuim";
-    case InputKind::SevenScenes:
-      return "7scenes";
-    case InputKind::Redwood:
-      return "redwood";
-    case InputKind::Rawlog:
-      return "rawlog";
-  }
-  return "?";
-}
-
-InputKind detectInputKind(const std::string& input) {
-  const fs::path p(input);
-  if (!fs::exists(p)) throw IoError("input '" + input + "' does not exist");
-  if (fs::is_regular_file(p)) {
-    if (p.extension() == ".rawlog" || p.extension() == ".gz") return InputKind::Rawlog;
-    throw IoError("input '" + input + "' is a file but not an MRPT .rawlog");
-  }
-  if (fs::is_directory(p / "velodyne")) return InputKind::Kitti;
-  bool icl_gt = false;
-  for (const auto& e : fs::directory_iterator(p))
-    if (e.path().extension() == ".freiburg") icl_gt = true;
-  if (fs::is_regular_file(p / "associations.txt") || icl_gt) return InputKind::IclNuim;
-  if (fs::is_regular_file(p / "depth.txt")) return InputKind::TumRgbd;
-  if (fs::is_regular_file(p / "frame-000000.depth.png")) return InputKind::SevenScenes;
-  if (fs::is_directory(p / "depth")) return InputKind::Redwood;
-  throw IoError("input '" + input +
-                "': no known layout (velodyne/ for KITTI; depth.txt, associations.txt, "
-                "frame-*.depth.png or depth/ for RGB-D; or an MRPT .rawlog file)");
-}
-
 std::unique_ptr<FrameSource> openFrameSource(const std::string& input,
                                              const std::string& ground_truth,
                                              const InputParams& params) {
   if (!ground_truth.empty() && !fs::is_regular_file(ground_truth))
     throw IoError("ground-truth file '" + ground_truth + "' does not exist");
-  const InputKind kind = detectInputKind(input);
+  const InputKind kind = io::detectDatasetKind(input);
   io::RgbdSequenceOptions ro;
   ro.max_time_difference = params.max_time_difference;
   ro.groundtruth_path = ground_truth;

@@ -7,18 +7,14 @@
 
 #include "obm/core/point_cloud.hpp"
 #include "obm/core/se3.hpp"
+#include "obm/io/dataset_kind.hpp"
 #include "obm/io/kitti.hpp"
 #include "obm/slam/slam_config.hpp"
 
 namespace obm::slam::detail {
 
-enum class InputKind { Kitti, TumRgbd, IclNuim, SevenScenes, Redwood, Rawlog };
-
-/// "kitti", "tum-rgbd", "icl-nuim", "7scenes", "redwood", "rawlog".
-std::string toString(InputKind kind);
-
-/// The layout of `input` from the files it holds; IoError naming it when none matches.
-InputKind detectInputKind(const std::string& input);
+/// The layouts obm-map plays (io::detectDatasetKind tells them apart).
+using InputKind = io::DatasetKind;
 
 /// Ground truth of the frames, in the same body frame as the clouds (the sensor frame of the
 /// front-end's poses): index-aligned with the frames read, nullopt where a frame has none.
