@@ -7,6 +7,15 @@ set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
 "$ROOT/scripts/setup.sh"
+# The real CGAL meshes (Debian libcgal-demo, a download of a few MB) for the mesh / point-set tests
+# on real files; without them those two tests are skipped, with a reason.
+if [[ -z "${OBM_CGAL_DATA:-}" ]]; then
+  if meshes=$("$ROOT/scripts/get_cgal_meshes.sh"); then
+    export OBM_CGAL_DATA="$meshes"
+  else
+    echo "[test] CGAL meshes unavailable: the tests on real meshes will be skipped" >&2
+  fi
+fi
 
 if [[ "${1:-}" == "--sanitize" ]]; then
   BUILD="$ROOT/build-asan"
