@@ -10,11 +10,11 @@ model=${2:-share/obmslam/models/obmnet_objects.pt}
 bin=${BUILD:-build}/bin/obm-bench
 pairs=${PAIRS:-200}
 mkdir -p "$out"
-for protocol in clean jitter partial partial_noise; do
+for protocol in clean jitter outliers partial partial_noise; do
   args=(--model "$model" --protocol "$protocol" --group unseen -n "$pairs" --seed 1 -q
         --json "$out/$protocol.json" --markdown "$out/$protocol.md")
   [[ -n "${METHODS:-}" ]] && args+=(--methods "$METHODS")
   echo "[bench-objects] $protocol"
   "$bin" "${args[@]}" --threads "${THREADS:-2}"
 done
-cat "$out"/{clean,jitter,partial,partial_noise}.md
+cat "$out"/{clean,jitter,outliers,partial,partial_noise}.md
