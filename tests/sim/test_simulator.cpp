@@ -329,8 +329,8 @@ TEST(SimulatorBadInput, UnknownPresetNamesItAndTheFoldersSearched) {
 }
 
 TEST(SimulatorBadInput, EveryPresetLoadsAndTheSelfContainedOnesNeedNoExternalData) {
-  for (const char* name : {"kitti_like_urban", "kitti00_gt", "indoor_tum_fr1_xyz",
-                           "indoor_tum_fr2_desk", "indoor_loop", "urban_vlp16"}) {
+  for (const char* name : {"kitti_like_urban", "kitti00_gt", "kitti00_gt_loop", "indoor_tum_fr1_xyz",
+                           "indoor_tum_fr2_desk", "indoor_loop", "urban_vlp16", "urban_block_loop"}) {
     const std::string path = findPreset(name);
     std::ifstream is(path);
     const std::string text((std::istreambuf_iterator<char>(is)), {});
