@@ -61,6 +61,7 @@ TEST(DatasetKind, EachLayoutIsRecognisedFromItsFiles) {
 }
 
 TEST(DatasetKind, TheRealOpen3dFramesAreARedwoodFolder) {
+  OBM_REQUIRE_SHARED_DATA("rgbd_open3d");
   EXPECT_EQ(detectDatasetKind(test::sharedDataDir() + "/rgbd_open3d"), DatasetKind::Redwood);
 }
 
