@@ -101,12 +101,17 @@ std::vector<MethodScores> runBenchmark(const std::vector<obmnet::RegistrationPai
     for (const auto& p : pairs) {
       Timer t;
       Isometry3d T = Isometry3d::Identity();
+      bool failed = false;
       try {
         T = m.fn(p.source, p.target);
       } catch (const std::exception&) {
         ++s.failures;
+        failed = true;
       }
-      acc.add(T, p.T_target_source, t.ms());
+      const double ms = t.ms();
+      s.per_pair.push_back(acc.add(T, p.T_target_source, ms));
+      s.per_pair_ms.push_back(ms);
+      s.per_pair_failed.push_back(failed);
       bar.tick();
     }
     s.summary = acc.summary();
@@ -154,6 +159,32 @@ std::string jsonReport(std::size_t n_pairs, const std::vector<MethodScores>& sco
   }
   j["methods"] = methods;
   return j.dump(2) + "\n";
+}
+
+std::string perPairCsv(const std::vector<obmnet::RegistrationPair>& pairs,
+                       const std::vector<MethodScores>& scores,
+                       const eval::RecallThresholds& recall) {
+  std::ostringstream os;
+  os << "pair,name,overlap";
+  for (const auto& s : scores)
+    os << ',' << s.name << "_rre_deg," << s.name << "_rte," << s.name << "_ms," << s.name
+       << "_ok";
+  os << '\n';
+  char buf[160];
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    std::snprintf(buf, sizeof(buf), "%zu,%s,%.4f", i, pairs[i].name.c_str(), pairs[i].overlap);
+    os << buf;
+    for (const auto& s : scores) {
+      const auto& e = s.per_pair.at(i);
+      const bool ok = !s.per_pair_failed.at(i) && e.rre_deg < recall.max_rre_deg &&
+                      e.rte < recall.max_rte;
+      std::snprintf(buf, sizeof(buf), ",%.6g,%.6g,%.2f,%d", e.rre_deg, e.rte, s.per_pair_ms.at(i),
+                    ok ? 1 : 0);
+      os << buf;
+    }
+    os << '\n';
+  }
+  return os.str();
 }
 
 }  // namespace obm::bench

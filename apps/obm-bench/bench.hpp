@@ -24,6 +24,10 @@ struct MethodScores {
   std::string name;
   eval::RegistrationSummary summary;
   std::size_t failures = 0;  ///< pairs where the method threw (counted as identity)
+  /// Per pair, in the pairs' order: errors, runtime [ms] and whether the method threw.
+  std::vector<eval::PairErrors> per_pair;
+  std::vector<double> per_pair_ms;
+  std::vector<bool> per_pair_failed;
 };
 
 /// Runs every method on every pair (with a progress bar) and scores it.
@@ -38,5 +42,11 @@ std::string markdownTable(const std::vector<MethodScores>& scores, const std::st
 /// "median_ms": …}, …}} plus the recall thresholds and free-form `info`.
 std::string jsonReport(std::size_t n_pairs, const std::vector<MethodScores>& scores,
                        const eval::RecallThresholds& recall, const std::string& info);
+
+/// One row per pair: `pair,name,overlap` then, per method, `<m>_rre_deg,<m>_rte,<m>_ms,<m>_ok`
+/// (ok = within the recall thresholds; a method that threw has ok 0 and its identity errors).
+std::string perPairCsv(const std::vector<obmnet::RegistrationPair>& pairs,
+                       const std::vector<MethodScores>& scores,
+                       const eval::RecallThresholds& recall);
 
 }  // namespace obm::bench

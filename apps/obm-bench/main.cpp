@@ -120,7 +120,7 @@ int main(int argc, char** argv) {
       "Pairs come from --pairs DIR (pair_NNNN_src.ply, pair_NNNN_tgt.ply, gt.txt: id + 12 numbers "
       "of\n"
       "T_tgt_src row-major) or are generated from the object set by --protocol and --group."};
-  std::string pairs_dir, json_out, md_out, write_pairs, methods_arg, ablation, log_level = "warn";
+  std::string pairs_dir, json_out, md_out, per_pair_out, write_pairs, methods_arg, ablation, log_level = "warn";
   std::string config_path = "", model = "";
   std::string protocol = "clean", group = "unseen";
   int n_pairs = 200, threads = 2, num_points = -1, denoise = 0;
@@ -131,6 +131,9 @@ int main(int argc, char** argv) {
   app.add_option("--pairs", pairs_dir, "score the pairs in this folder instead of generated ones");
   app.add_option("--json", json_out, "write the results as JSON");
   app.add_option("--markdown", md_out, "write the table as Markdown");
+  app.add_option("--per-pair", per_pair_out,
+                 "write every pair's errors as CSV: pair, name, overlap, then per method RRE "
+                 "[deg], RTE, ms and ok (within the recall thresholds)");
   app.add_option("--model", model,
                  "OBMNet model file (default: share/obmslam/models/obmnet_objects.pt)");
   app.add_option("--config", config_path,
@@ -287,6 +290,8 @@ int main(int argc, char** argv) {
     if (!md_out.empty()) writeTextAtomically(md_out, md);
     if (!json_out.empty())
       writeTextAtomically(json_out, bench::jsonReport(pairs.size(), scores, recall, info));
+    if (!per_pair_out.empty())
+      writeTextAtomically(per_pair_out, bench::perPairCsv(pairs, scores, recall));
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "obm-bench: error: %s\n", e.what());
