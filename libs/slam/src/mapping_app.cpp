@@ -124,8 +124,8 @@ RunSummary MappingApp::run() {
   const fs::path out(options_.out_dir);
   const SlamConfig& cfg = config_;
 
-  // Everything that can be checked is checked before the first frame.
-  checkWritable(options_.out_dir);
+  // Everything that can be checked is checked before the first frame: the input and the model
+  // first, so that a run failing on them does not leave an empty output folder behind.
   auto source = detail::openFrameSource(options_.input, options_.ground_truth, cfg.input);
   sum.input_kind = io::toString(source->kind());
   sum.frames_total = source->size();
@@ -133,6 +133,7 @@ RunSummary MappingApp::run() {
     sum.frames_total = std::min(sum.frames_total, options_.max_frames);
   frontend::Frontend fe(cfg.frontend);
   sum.matcher = fe.matcherName();
+  checkWritable(options_.out_dir);
 
   std::unique_ptr<detail::MapWorker> mapper;
   const double map_voxel =

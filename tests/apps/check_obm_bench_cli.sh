@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# The obm-bench command line exactly as documented (and as the acceptance checks call it):
+#   check_obm_bench_cli.sh <obm-bench binary> <source tree> <scratch folder>
+# Scores a folder of pairs with the default object model: `obm-bench --pairs DIR --json OUT.json`.
+set -euo pipefail
+tool="$1"
+src="$2"
+work="$3"
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+source "$here/common.sh"
+rm -rf "$work"
+mkdir -p "$work/pairs"
+cd "$src"   # the default model is found in the source tree's share/
+
+"$tool" --help >/dev/null || fail "--help"
+
+# Two pairs of an asymmetric shape (a bumpy sheet, a wall, a post) with known small motions.
+awk -v dir="$work/pairs" -f "$here/make_pairs.awk"
+"$tool" --pairs "$work/pairs" --json "$work/out.json" --per-pair "$work/pairs.csv" -q \
+  > "$work/log.txt" 2>&1 || { cat "$work/log.txt"; fail "obm-bench failed"; }
+[[ $(num pairs "$work/out.json") -eq 2 ]] || fail "\"pairs\" must be 2"
+for m in obmnet obmnet+icp icp; do
+  block=$(sed -n "/\"$m\": {/,/}/p" "$work/out.json")
+  [[ -n "$block" ]] || fail "no \"$m\" entry in out.json"
+  echo "$block" > "$work/$m.json"
+  for k in mae_r mae_t mie_r mie_t recall median_ms; do num "$k" "$work/$m.json" >/dev/null; done
+done
+# Identical samples moved by ≤ 14°: ICP, alone or after the network, registers both pairs.
+for m in obmnet+icp icp; do
+  lt "$(num mie_r "$work/$m.json")" 0.05 || fail "$m: MIE(R) $(num mie_r "$work/$m.json") on easy pairs"
+  [[ "$(num recall "$work/$m.json")" == 1* ]] || fail "$m: recall below 1 on easy pairs"
+done
+[[ $(wc -l < "$work/pairs.csv") -eq 3 ]] || fail "pairs.csv: header + 2 rows expected"
+head -1 "$work/pairs.csv" | grep -q '^pair,name,overlap,obmnet_rre_deg' || fail "pairs.csv header"
+
+# Bad input: the file and line are named, exit code 1, nothing written.
+cp -r "$work/pairs" "$work/bad"
+echo "0002 1 0 0" >> "$work/bad/gt.txt"
+if "$tool" --pairs "$work/bad" --json "$work/bad.json" -q 2> "$work/bad.err"; then
+  fail "malformed gt.txt accepted"
+fi
+grep -q 'gt.txt:3' "$work/bad.err" || fail "malformed gt.txt not named: $(cat "$work/bad.err")"
+[[ ! -e "$work/bad.json" ]] || fail "a failed run wrote output"
+if "$tool" --pairs "$work/pairs" --model "$work/none.pt" --json "$work/bad.json" -q 2> "$work/bad.err"; then
+  fail "missing model accepted"
+fi
+grep -q 'none.pt' "$work/bad.err" || fail "missing model not named: $(cat "$work/bad.err")"
+echo "obm-bench command line: OK"
