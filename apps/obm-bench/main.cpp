@@ -85,7 +85,7 @@ IcpParams objectRefineIcpParams(double unit, double polish) {
 }
 
 bench::Method obmnetIcpMethod(const std::string& model, int threads, int num_points,
-                              int denoise, double unit, double polish) {
+                              int denoise, double unit, double polish, double overlap_keep) {
   ObmNetMatcherParams p;
   p.denoise_neighbors = denoise;
   p.model_path = model;
@@ -93,6 +93,7 @@ bench::Method obmnetIcpMethod(const std::string& model, int threads, int num_poi
   p.threads = threads;
   p.pre_align = false;
   p.keep_init_if_better = false;
+  p.overlap_stage_keep = overlap_keep;
   auto m =
       std::make_shared<ObmNetIcpMatcher>(p, objectRefineIcpParams(unit, polish),
                                              objectConfidenceParams(unit));
@@ -128,7 +129,8 @@ int main(int argc, char** argv) {
   std::string protocol = "clean", group = "unseen";
   int n_pairs = 200, threads = 2, num_points = -1, denoise = 0;
   std::uint64_t seed = 1;
-  double recall_deg = 1.0, recall_trans = 0.1, jitter_sigma = -1.0, unit = 0.0, polish = -1.0;
+  double recall_deg = 1.0, recall_trans = 0.1, jitter_sigma = -1.0, unit = 0.0, polish = -1.0,
+         overlap_keep = -1.0;
   std::vector<std::string> sequences;
   bool quiet = false;
   app.add_option("--pairs", pairs_dir, "score the pairs in this folder instead of generated ones");
@@ -169,6 +171,10 @@ int main(int argc, char** argv) {
                  "gate [units of --unit] of the point-to-point polish after the project's ICP (0 = "
                  "off); default 0.05 for the generated protocols (object and fragment pairs), "
                  "whose two clouds carry the same surface samples, else 0 (see docs/obm-bench.md)");
+  app.add_option("--overlap-stage", overlap_keep,
+                 "obmnet+icp: fraction of the network's points, those with the largest SVD "
+                 "weights, refined first by an ICP of their own (0 = off; default 0.5, see "
+                 "docs/obm-bench.md)");
   app.add_option("--recall-deg", recall_deg, "recall: RRE below this [deg]")->capture_default_str();
   app.add_option("--recall-trans", recall_trans, "recall: RTE below this [units]")
       ->capture_default_str();
@@ -277,6 +283,8 @@ int main(int argc, char** argv) {
     // obmnet::makePair draws both clouds of a generated pair from the same samples, which is
     // when the point-to-point polish helps (IcpParams); sweeps and external pairs do not.
     if (polish < 0.0) polish = shared_samples ? 0.05 : 0.0;
+    if (overlap_keep < 0.0) overlap_keep = 0.5;
+    if (overlap_keep > 1.0) throw ConfigError("--overlap-stage must be in [0, 1]");
     if (!write_pairs.empty()) bench::writePairFolder(write_pairs, pairs);
 
     std::vector<bench::Method> methods;
@@ -285,7 +293,8 @@ int main(int argc, char** argv) {
         methods.push_back(obmnetMethod(m, m, threads, num_points, denoise));
     } else {
       methods.push_back(obmnetMethod("obmnet", model, threads, num_points, denoise));
-      methods.push_back(obmnetIcpMethod(model, threads, num_points, denoise, unit, polish));
+      methods.push_back(
+          obmnetIcpMethod(model, threads, num_points, denoise, unit, polish, overlap_keep));
       methods.push_back(icpMethod(unit, polish));
       for (auto& m : bench::open3dMethods(scaledOpen3dParams(unit))) methods.push_back(std::move(m));
     }

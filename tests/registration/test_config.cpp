@@ -106,6 +106,10 @@ TEST(RegistrationConfig, ErrorsNameFileAndKey) {
   expectConfigError("type: obmnet+icp\nobmnet: {threads: 2}", "obmnet.model_path");
   expectConfigError("type: obmnet\nobmnet: {model_path: m.pt, pre_aling: true}",
                     "obmnet.pre_aling");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, overlap_stage_keep: 1.5}",
+                    "obmnet.overlap_stage_keep");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, overlap_stage_gate_factor: 0.5}",
+                    "obmnet.overlap_stage_gate_factor");
 }
 
 TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
@@ -118,8 +122,12 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
       << c.obmnet.model_path;
   const auto s = ScanMatcherConfig::load(ConfigNode::fromString(
       "type: obmnet\nobmnet: {model_path: /abs/m.pt, num_points: 512, threads: 1, seed: 7, "
-      "pre_align: false, keep_init_if_better: false}"));
+      "pre_align: false, keep_init_if_better: false, overlap_stage_keep: 0.3, "
+      "overlap_stage_gate_factor: 3}"));
   EXPECT_EQ(s.obmnet.model_path, "/abs/m.pt");
+  EXPECT_DOUBLE_EQ(s.obmnet.overlap_stage_keep, 0.3);
+  EXPECT_DOUBLE_EQ(s.obmnet.overlap_stage_gate_factor, 3.0);
+  EXPECT_DOUBLE_EQ(c.obmnet.overlap_stage_keep, 0.0);  // off unless asked for
   EXPECT_EQ(s.obmnet.num_points, 512);
   EXPECT_EQ(s.obmnet.threads, 1);
   EXPECT_EQ(s.obmnet.seed, 7u);

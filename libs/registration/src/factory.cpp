@@ -12,7 +12,7 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   ObmNetMatcherParams p;
   node.checkKeys(
       {"model_path", "num_points", "threads", "seed", "denoise_neighbors", "pre_align",
-       "keep_init_if_better"});
+       "keep_init_if_better", "overlap_stage_keep", "overlap_stage_gate_factor"});
   p.model_path = node.required<std::string>("model_path");
   node.get("num_points", p.num_points);
   node.get("threads", p.threads);
@@ -20,6 +20,12 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   node.get("denoise_neighbors", p.denoise_neighbors);
   node.get("pre_align", p.pre_align);
   node.get("keep_init_if_better", p.keep_init_if_better);
+  node.get("overlap_stage_keep", p.overlap_stage_keep);
+  node.get("overlap_stage_gate_factor", p.overlap_stage_gate_factor);
+  if (!(p.overlap_stage_keep >= 0.0 && p.overlap_stage_keep <= 1.0))
+    throw ConfigError(node.where("overlap_stage_keep") + ": must be in [0, 1]");
+  if (!(p.overlap_stage_gate_factor >= 1.0))
+    throw ConfigError(node.where("overlap_stage_gate_factor") + ": must be >= 1");
   if (p.model_path.empty()) throw ConfigError(node.where("model_path") + ": must not be empty");
   if (p.num_points < 0) throw ConfigError(node.where("num_points") + ": must be >= 0");
   if (p.threads < 1) throw ConfigError(node.where("threads") + ": must be >= 1");

@@ -4,6 +4,8 @@
 #include "obm/registration/obmnet_matcher.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <optional>
 
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
@@ -168,7 +170,37 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
                                         << n_init << " vs " << n_net << " paired points)");
     }
   }
-  const IcpOutcome icp = runIcp(source.points, target, T_start, icp_);
+  const double keep = impl_->params.overlap_stage_keep;
+  std::optional<Isometry3d> T_staged;
+  if (keep > 0.0 && !net.sampled.empty()) {
+    // Overlap stage: ICP on the points the network weights most (its SVD weights ω), so the
+    // first refinement sees the overlap the network found rather than the whole partial cloud.
+    std::vector<std::size_t> order(net.sampled.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    const auto n_keep = std::max<std::size_t>(
+        1, static_cast<std::size_t>(std::lround(keep * static_cast<double>(order.size()))));
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return net.prior[a] > net.prior[b]; });
+    std::vector<Vector3f> core;
+    core.reserve(n_keep);
+    for (std::size_t i = 0; i < n_keep && i < order.size(); ++i) core.push_back(net.sampled[order[i]]);
+    IcpParams stage = icp_;
+    stage.initial_max_correspondence_distance =
+        impl_->params.overlap_stage_gate_factor * icp_.max_correspondence_distance;
+    stage.polish_max_correspondence_distance = 0.0;
+    const IcpOutcome o = runIcp(core, target, T_start, stage);
+    if (o.status != MatchStatus::TooFewCorrespondences) T_staged = o.T_target_source;
+  }
+  IcpOutcome icp = runIcp(source.points, target, T_start, icp_);
+  if (T_staged) {
+    // Both refinements compete on the whole source: the one that pairs more points within the
+    // fine gate wins (the stage can also be misled, e.g. by outliers among the weighted points).
+    IcpOutcome staged = runIcp(source.points, target, *T_staged, icp_);
+    if (staged.status != MatchStatus::TooFewCorrespondences &&
+        (icp.status == MatchStatus::TooFewCorrespondences ||
+         staged.num_correspondences > icp.num_correspondences))
+      icp = std::move(staged);
+  }
   MatchResult result;
   result.T_target_source = icp.T_target_source;
   result.status = icp.status;
