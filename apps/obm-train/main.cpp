@@ -70,11 +70,14 @@ int main(int argc, char** argv) {
     obm::setLogLevel(obm::parseLogLevel(log_level));
     auto root = obm::ConfigNode::loadFile(config_path);
     obm::applyOverrides(root, overrides);
+    // The command-line options are written into the document too, so that OUT/config.yaml is
+    // the configuration this run really used and `-c OUT/config.yaml --resume` continues it.
+    if (threads > 0) obm::setValue(root, "train.threads", YAML::Node(threads));
+    if (epochs > 0) obm::setValue(root, "train.epochs", YAML::Node(epochs));
+    if (max_hours >= 0) obm::setValue(root, "train.max_hours", YAML::Node(max_hours));
+    if (batch > 0) obm::setValue(root, "train.batch_size", YAML::Node(batch));
+    if (!data_dir.empty()) obm::setValue(root, "data.dir", YAML::Node(data_dir));
     auto cfg = obm::obmnet::TrainConfig::load(root);
-    if (threads > 0) cfg.threads = threads;
-    if (epochs > 0) cfg.epochs = epochs;
-    if (max_hours >= 0) cfg.max_hours = max_hours;
-    if (batch > 0) cfg.batch_size = batch;
     torch::set_num_threads(cfg.threads);
 
     // The data: meshes (object-level protocols) or LiDAR scan pairs (`source: kitti`).
@@ -84,7 +87,6 @@ int main(int argc, char** argv) {
     std::unique_ptr<obm::obmnet::Trainer> trainer_ptr;
     if (source == "kitti") {
       auto scans = obm::apps::ScanSourceConfig::load(data);
-      if (!data_dir.empty()) scans.dir = data_dir;
       const int n_points = cfg.protocol.num_points;
       auto sampler = obm::apps::scanPairSampler(scans, n_points, cfg.curriculum_epochs);
       auto val = obm::apps::scanValidationPairs(scans, n_points, cfg.val_pairs, cfg.seed);
@@ -94,7 +96,6 @@ int main(int argc, char** argv) {
           std::make_unique<obm::obmnet::Trainer>(cfg, std::move(sampler), std::move(val), out_dir);
     } else {
       auto src = obm::apps::ObjectSourceConfig::load(data);
-      if (!data_dir.empty()) src.dir = data_dir;
       auto set = obm::apps::loadObjectSet(src);
       std::fprintf(stderr,
                    "[obm-train] objects: %zu train, %zu val, %zu test (test never used here)\n",
@@ -103,6 +104,14 @@ int main(int argc, char** argv) {
                                                            std::move(set.val), out_dir);
     }
     auto& trainer = *trainer_ptr;
+    {
+      std::string header = "# obm-train's configuration of this run: " + config_path;
+      for (const auto& o : overrides) header += " --set " + o;
+      header +=
+          ", with the command-line options applied.\n"
+          "# Continue the run: obm-train -c OUT/config.yaml -o OUT --resume\n";
+      trainer.setRunConfigYaml(header + obm::toYamlText(root));
+    }
     if (!init_model.empty()) trainer.initializeFrom(init_model);
     if (overfit > 0) {
       const auto rows =

@@ -54,6 +54,27 @@ TEST(ConfigOverrides, SetsNestedValuesAndCreatesMaps) {
   EXPECT_DOUBLE_EQ(lr, 0.001);  // untouched
 }
 
+TEST(ConfigOverrides, TypedValuesAndTheRecordedTextLoadBackTheSame) {
+  auto c = ConfigNode::fromString("model:\n  k1: 5  # neighbours\ntrain:\n  lr: 0.001\n", "o.yaml");
+  // A folder name that `--set data.dir=...` would parse as a YAML map, not as text.
+  setValue(c, "data.dir", YAML::Node("runs/a: b"));
+  setValue(c, "train.threads", YAML::Node(3));
+  const std::string text = toYamlText(c);
+  const auto back = ConfigNode::fromString(text, "recorded.yaml");
+  std::string dir;
+  int k1 = 0, threads = 0;
+  double lr = 0.0;
+  back.child("data").get("dir", dir);
+  back.child("model").get("k1", k1);
+  back.child("train").get("threads", threads);
+  back.child("train").get("lr", lr);
+  EXPECT_EQ(dir, "runs/a: b");
+  EXPECT_EQ(k1, 5);
+  EXPECT_EQ(threads, 3);
+  EXPECT_DOUBLE_EQ(lr, 0.001);
+  EXPECT_THROW(setValue(c, "model.k1.x", YAML::Node(1)), ConfigError);
+}
+
 TEST(ConfigOverrides, BadAssignmentsNameTheAssignment) {
   auto c = ConfigNode::fromString("model:\n  k1: 5\n", "o.yaml");
   for (const std::string bad : {"model.k1", "=3", "model..k1=3", "model.k1.x=3", "model.k1=[1,"}) {

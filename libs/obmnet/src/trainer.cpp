@@ -173,6 +173,7 @@ struct Trainer::Impl {
   std::unique_ptr<torch::optim::Adam> optim;
   std::vector<RegistrationPair> val_pairs;
   long skipped = 0;  ///< batches skipped for non-finite loss or gradients
+  std::string run_config_yaml;  ///< written to out/config.yaml when set
 
   Impl(TrainConfig c, PairSampler s, std::vector<RegistrationPair> v, std::string o)
       : cfg(std::move(c)), sampler(std::move(s)), out(std::move(o)), val_pairs(std::move(v)) {
@@ -392,6 +393,10 @@ std::vector<std::array<double, 3>> Trainer::overfitOneBatch(int steps, int every
   return rows;
 }
 
+void Trainer::setRunConfigYaml(std::string yaml_text) {
+  impl_->run_config_yaml = std::move(yaml_text);
+}
+
 double Trainer::measureThroughput(int n_batches) {
   std::mt19937_64 rng(impl_->cfg.seed + 99u);
   // One warm-up batch (allocations), then timed ones.
@@ -408,13 +413,16 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
                                      const std::function<void(const EpochStats&)>& on_epoch) {
   Impl& I = *impl_;
   ensureDirectory(I.out);
-  writeTextAtomically(
-      I.out + "/config.yaml", "# configuration of this run (model + training)\nmodel:\n" + [&] {
-        std::string y = I.cfg.model.toYaml(), r;
-        std::istringstream is(y);
-        for (std::string line; std::getline(is, line);) r += "  " + line + "\n";
-        return r;
-      }());
+  writeTextAtomically(I.out + "/config.yaml",
+                      !I.run_config_yaml.empty()
+                          ? I.run_config_yaml
+                          : "# model configuration of this run\nmodel:\n" + [&] {
+                              std::string y = I.cfg.model.toYaml(), r;
+                              std::istringstream is(y);
+                              for (std::string line; std::getline(is, line);)
+                                r += "  " + line + "\n";
+                              return r;
+                            }());
   int start_epoch = 0;
   double best = 1e300, wall0 = 0.0;
   if (resume) {

@@ -17,6 +17,15 @@ namespace obm {
 /// not YAML, or a path that runs through a value that is not a map.
 void applyOverride(ConfigNode& root, const std::string& assignment);
 
+/// Sets `a.b.c` of `root` to `value` in place (the typed form of applyOverride, for values that
+/// come from command-line options, e.g. a folder name that YAML would not read back as text).
+/// Throws ConfigError as applyOverride.
+void setValue(ConfigNode& root, const std::string& path, const YAML::Node& value);
+
+/// The document of `root` as YAML text (comments are not kept), so that a program can record the
+/// exact configuration it ran with; loading that text gives the same parameters.
+std::string toYamlText(const ConfigNode& root);
+
 /// Applies each assignment in order.
 void applyOverrides(ConfigNode& root, const std::vector<std::string>& assignments);
 

@@ -107,6 +107,12 @@ class Trainer {
   Trainer(const Trainer&) = delete;
   Trainer& operator=(const Trainer&) = delete;
 
+  /// The text run() writes to out_dir/config.yaml: the whole configuration of the run (model,
+  /// train and data sections, command-line overrides applied), so that
+  /// `obm-train -c OUT/config.yaml -o OUT --resume` continues the same run. When not set, run()
+  /// records the model section only (all the library knows).
+  void setRunConfigYaml(std::string yaml_text);
+
   /// Runs until `config.epochs` (continuing from out_dir/checkpoint.pt when `resume`), or until
   /// `stop()` returns true (checked between batches; the checkpoint then holds the last whole
   /// epoch). Returns the per-epoch statistics of this run. `on_epoch` is called after each epoch.
