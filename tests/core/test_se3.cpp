@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include "obm/core/se3.hpp"
 
@@ -86,6 +87,37 @@ TEST(SE3, OrthonormalizeProjects) {
   EXPECT_NEAR(P.determinant(), 1.0, 1e-12);
   EXPECT_TRUE((P.transpose() * P).isApprox(Eigen::Matrix3d::Identity(), 1e-12));
   EXPECT_LT((P - R).norm(), 2e-3);
+}
+
+TEST(SE3, OrthonormalizeIsTheNearestRotation) {
+  // The result must be the SVD projection U·Vᵀ (the nearest rotation in the Frobenius norm) for
+  // near-rotations, strongly scaled or skewed matrices, and reflections (det < 0 → det = +1).
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> n(0.0, 1.0);
+  auto svdProjection = [](const Eigen::Matrix3d& M) {
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::Matrix3d U = svd.matrixU();
+    if ((U * svd.matrixV().transpose()).determinant() < 0) U.col(2) *= -1.0;
+    return Eigen::Matrix3d(U * svd.matrixV().transpose());
+  };
+  for (int k = 0; k < 300; ++k) {
+    const Isometry3d T = randomAxisAngleTransform(rng, 180.0, 0.0);
+    Eigen::Matrix3d E;
+    for (int i = 0; i < 9; ++i) E(i / 3, i % 3) = n(rng);
+    const double noise = k < 100 ? 1e-3 : (k < 200 ? 0.3 : 3.0);
+    Eigen::Matrix3d M = (k % 7 == 0 ? 0.2 : 1.0) * T.linear() + noise * E;
+    if (k % 11 == 0) M.col(0) *= -1.0;  // a reflection
+    const Eigen::Matrix3d P = orthonormalize(M);
+    EXPECT_NEAR(P.determinant(), 1.0, 1e-12) << k;
+    EXPECT_TRUE((P.transpose() * P).isApprox(Eigen::Matrix3d::Identity(), 1e-12)) << k;
+    // The nearest rotation is unique unless two singular values (with the sign) coincide.
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(M);
+    const auto sv = svd.singularValues();
+    if (sv(1) - sv(2) > 1e-3 && sv(0) - sv(1) > 1e-3) {
+      EXPECT_LT((P - svdProjection(M)).cwiseAbs().maxCoeff(), 1e-10) << k;
+    }
+  }
+  EXPECT_TRUE(orthonormalize(Eigen::Matrix3d::Zero()).isUnitary(1e-12));
 }
 
 TEST(SE2, ComposeInverseWrap) {

@@ -111,9 +111,11 @@ class BlockSystem {
       // Tiny graphs: a dense factorisation beats the sparse one's ordering and symbolic steps.
       Eigen::MatrixXd H = Eigen::MatrixXd::Zero(D * n_, D * n_);
       for (const auto& t : trip_) H(t.row(), t.col()) += t.value();
-      const Eigen::LDLT<Eigen::MatrixXd> ldlt(H);
-      if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 0.0).all()) return false;
-      x = ldlt.solve(rhs_);
+      // The anchored, weighted graph Laplacian is positive definite exactly when the graph is
+      // connected to a gauge root; Cholesky fails otherwise (the caller falls back).
+      const Eigen::LLT<Eigen::MatrixXd> llt(H);
+      if (llt.info() != Eigen::Success) return false;
+      x = llt.solve(rhs_);
       return x.allFinite();
     }
     Eigen::SparseMatrix<double> H(D * n_, D * n_);

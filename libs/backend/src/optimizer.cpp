@@ -30,6 +30,8 @@ namespace obm::backend {
 namespace {
 
 constexpr const char* kLog = "backend.optimizer";
+/// Graphs up to this many nodes use DENSE_SCHUR instead of SPARSE_NORMAL_CHOLESKY (optimize()).
+constexpr std::size_t kDenseSchurMaxNodes = 16;
 
 class CallbackAdapter final : public ceres::IterationCallback {
  public:
@@ -500,6 +502,11 @@ struct Optimizer::Impl {
     so.minimizer_type = ceres::TRUST_REGION;
     so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
     so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+    // A graph of a handful of nodes: Ceres's dense Schur complement (an independent set of nodes
+    // eliminated block by block, the rest factorised densely) costs less per iteration than the
+    // sparse Cholesky's symbolic bookkeeping. Crossover measured on sub-graphs of smallGrid3D:
+    // 16 nodes equal, 25 nodes 5 % slower (docs/benchmarks.md, pose graph).
+    if (graph.numNodes() <= kDenseSchurMaxNodes) so.linear_solver_type = ceres::DENSE_SCHUR;
     so.sparse_linear_algebra_library_type = sparseLibrary(index);
     so.max_num_iterations = opt.max_iterations;
     // A good start (chordal relaxation) makes Gauss–Newton-sized first steps pay off; LM shrinks
