@@ -98,8 +98,17 @@ class BlockSystem {
  public:
   using Block = Eigen::Matrix<double, D, D>;
   using Rhs = Eigen::Matrix<double, D, K>;
-  explicit BlockSystem(int n_free) : n_(n_free), rhs_(Eigen::MatrixXd::Zero(D * n_free, K)) {}
+  explicit BlockSystem(int n_free)
+      : n_(n_free),
+        dense_(D * n_free <= kMaxDense),
+        rhs_(Eigen::MatrixXd::Zero(D * n_free, K)) {
+    if (dense_) H_ = Eigen::MatrixXd::Zero(D * n_free, D * n_free);
+  }
   void addH(int i, int j, const Block& b) {
+    if (dense_) {
+      H_.template block<D, D>(D * i, D * j) += b;
+      return;
+    }
     for (int r = 0; r < D; ++r)
       for (int c = 0; c < D; ++c)
         if (b(r, c) != 0.0) trip_.emplace_back(D * i + r, D * j + c, b(r, c));
@@ -107,13 +116,11 @@ class BlockSystem {
   void addB(int i, const Rhs& b) { rhs_.template block<D, K>(D * i, 0) += b; }
   /// Returns false when the system is singular.
   bool solve(Eigen::MatrixXd& x) const {
-    if (D * n_ <= 64) {
+    if (dense_) {
       // Tiny graphs: a dense factorisation beats the sparse one's ordering and symbolic steps.
-      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(D * n_, D * n_);
-      for (const auto& t : trip_) H(t.row(), t.col()) += t.value();
       // The anchored, weighted graph Laplacian is positive definite exactly when the graph is
       // connected to a gauge root; Cholesky fails otherwise (the caller falls back).
-      const Eigen::LLT<Eigen::MatrixXd> llt(H);
+      const Eigen::LLT<Eigen::MatrixXd> llt(H_);
       if (llt.info() != Eigen::Success) return false;
       x = llt.solve(rhs_);
       return x.allFinite();
@@ -127,8 +134,11 @@ class BlockSystem {
   }
 
  private:
+  static constexpr int kMaxDense = 64;  ///< unknowns up to which H is assembled densely
   int n_;
-  std::vector<Eigen::Triplet<double>> trip_;
+  bool dense_;
+  Eigen::MatrixXd H_;                       ///< dense H (small systems)
+  std::vector<Eigen::Triplet<double>> trip_;  ///< sparse H (larger systems)
   Eigen::MatrixXd rhs_;
 };
 
