@@ -53,12 +53,15 @@ void PoseGraph::copyPosesFrom(const PoseGraph& other) {
 void PoseGraph::validate() const {
   OBM_ASSERT(dimension == 2 || dimension == 3, "dimension must be 2 or 3");
   auto check = [&](std::size_t k, NodeId from, NodeId to, bool finite) {
-    const std::string what = "edge #" + std::to_string(k) + " (" + std::to_string(from) + " -> " +
-                             std::to_string(to) + ")";
-    if (!hasNode(from)) throw ContractError(what + ": source node does not exist");
-    if (!hasNode(to)) throw ContractError(what + ": target node does not exist");
-    if (from == to) throw ContractError(what + ": joins a node to itself");
-    if (!finite) throw ContractError(what + ": non-finite measurement or information");
+    // The message is built only on failure: this runs before every optimisation.
+    auto what = [&] {
+      return "edge #" + std::to_string(k) + " (" + std::to_string(from) + " -> " +
+             std::to_string(to) + ")";
+    };
+    if (!hasNode(from)) throw ContractError(what() + ": source node does not exist");
+    if (!hasNode(to)) throw ContractError(what() + ": target node does not exist");
+    if (from == to) throw ContractError(what() + ": joins a node to itself");
+    if (!finite) throw ContractError(what() + ": non-finite measurement or information");
   };
   if (is3D()) {
     for (std::size_t k = 0; k < edges3.size(); ++k) {
