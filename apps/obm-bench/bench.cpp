@@ -77,7 +77,7 @@ void writePairFolder(const std::string& dir, const std::vector<obmnet::Registrat
   std::ostringstream gt;
   gt << std::setprecision(17);
   for (std::size_t i = 0; i < pairs.size(); ++i) {
-    char id[16];
+    char id[24];  // "%04zu" of any size_t fits
     std::snprintf(id, sizeof(id), "%04zu", i);
     io::writePointCloud(dir + "/pair_" + id + "_src.ply", pairs[i].source, true);
     io::writePointCloud(dir + "/pair_" + id + "_tgt.ply", pairs[i].target, true);
@@ -176,8 +176,7 @@ std::string perPairCsv(const std::vector<obmnet::RegistrationPair>& pairs,
     os << buf;
     for (const auto& s : scores) {
       const auto& e = s.per_pair.at(i);
-      const bool ok = !s.per_pair_failed.at(i) && e.rre_deg < recall.max_rre_deg &&
-                      e.rte < recall.max_rte;
+      const bool ok = !s.per_pair_failed.at(i) && recall.accepts(e.rre_deg, e.rte);
       std::snprintf(buf, sizeof(buf), ",%.6g,%.6g,%.2f,%d", e.rre_deg, e.rte, s.per_pair_ms.at(i),
                     ok ? 1 : 0);
       os << buf;

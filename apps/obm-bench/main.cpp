@@ -67,11 +67,14 @@ ConfidenceParams objectConfidenceParams(double unit) {
   return c;
 }
 
-bench::Method icpMethod(double unit, double polish) {
-  auto m =
-      std::make_shared<IcpMatcher>(objectIcpParams(unit, polish), objectConfidenceParams(unit));
-  return {"icp", [m](const PointCloud& s, const PointCloud& t) {
-            return m->match(s, t, Isometry3d::Identity()).T_target_source;
+std::shared_ptr<IcpMatcher> objectIcpMatcher(double unit, double polish) {
+  return std::make_shared<IcpMatcher>(objectIcpParams(unit, polish), objectConfidenceParams(unit));
+}
+
+/// A bench row that runs `matcher` from the identity.
+bench::Method matcherMethod(std::string name, std::shared_ptr<const ScanMatcher> matcher) {
+  return {std::move(name), [matcher](const PointCloud& s, const PointCloud& t) {
+            return matcher->match(s, t, Isometry3d::Identity()).T_target_source;
           }};
 }
 
@@ -84,8 +87,9 @@ IcpParams objectRefineIcpParams(double unit, double polish) {
   return p;
 }
 
-bench::Method obmnetIcpMethod(const std::string& model, int threads, int num_points,
-                              int denoise, double unit, double polish, double overlap_keep) {
+std::shared_ptr<ObmNetIcpMatcher> obmnetIcpMatcher(const std::string& model, int threads,
+                                                   int num_points, int denoise, double unit,
+                                                   double polish, double overlap_keep) {
   ObmNetMatcherParams p;
   p.denoise_neighbors = denoise;
   p.model_path = model;
@@ -94,42 +98,24 @@ bench::Method obmnetIcpMethod(const std::string& model, int threads, int num_poi
   p.pre_align = false;
   p.keep_init_if_better = false;
   p.overlap_stage_keep = overlap_keep;
-  auto m =
-      std::make_shared<ObmNetIcpMatcher>(p, objectRefineIcpParams(unit, polish),
-                                             objectConfidenceParams(unit));
-  return {"obmnet+icp", [m](const PointCloud& s, const PointCloud& t) {
-            return m->match(s, t, Isometry3d::Identity()).T_target_source;
-          }};
+  return std::make_shared<ObmNetIcpMatcher>(p, objectRefineIcpParams(unit, polish),
+                                            objectConfidenceParams(unit));
 }
 
 /// Both starts a user without a prior has: the network's pose (then the refinement, as
 /// `obmnet+icp`) and the identity (the `icp` row); the result that pairs more source points within
 /// the final gate wins. Neither start sees the ground truth; it costs both rows' time.
-bench::Method obmnetIcpOrIcpMethod(const std::string& model, int threads, int num_points,
-                                   int denoise, double unit, double polish, double overlap_keep) {
-  ObmNetMatcherParams p;
-  p.denoise_neighbors = denoise;
-  p.model_path = model;
-  p.num_points = num_points;
-  p.threads = threads;
-  p.pre_align = false;
-  p.keep_init_if_better = false;
-  p.overlap_stage_keep = overlap_keep;
-  auto net = std::make_shared<ObmNetIcpMatcher>(p, objectRefineIcpParams(unit, polish),
-                                                objectConfidenceParams(unit));
-  auto icp =
-      std::make_shared<IcpMatcher>(objectIcpParams(unit, polish), objectConfidenceParams(unit));
+bench::Method obmnetIcpOrIcpMethod(std::shared_ptr<const ScanMatcher> net,
+                                   std::shared_ptr<const ScanMatcher> icp) {
   return {"obmnet+icp|icp", [net, icp](const PointCloud& s, const PointCloud& t) {
             const MatchResult a = net->match(s, t, Isometry3d::Identity());
             const MatchResult b = icp->match(s, t, Isometry3d::Identity());
-            const bool a_ok = a.status != MatchStatus::TooFewCorrespondences &&
-                              a.status != MatchStatus::EmptyInput &&
-                              a.status != MatchStatus::TooFewPoints;
-            const bool b_ok = b.status != MatchStatus::TooFewCorrespondences &&
-                              b.status != MatchStatus::EmptyInput &&
-                              b.status != MatchStatus::TooFewPoints;
-            const bool take_b =
-                b_ok && (!a_ok || b.num_correspondences > a.num_correspondences);
+            auto paired = [](const MatchResult& r) {
+              return r.status != MatchStatus::TooFewCorrespondences &&
+                     r.status != MatchStatus::EmptyInput && r.status != MatchStatus::TooFewPoints;
+            };
+            const bool take_b = paired(b) && (!paired(a) ||
+                                              b.num_correspondences > a.num_correspondences);
             return (take_b ? b : a).T_target_source;
           }};
 }
@@ -325,16 +311,18 @@ int main(int argc, char** argv) {
         methods.push_back(obmnetMethod(m, m, threads, num_points, denoise));
     } else {
       methods.push_back(obmnetMethod("obmnet", model, threads, num_points, denoise));
-      methods.push_back(
-          obmnetIcpMethod(model, threads, num_points, denoise, unit, polish, overlap_keep));
-      methods.push_back(icpMethod(unit, polish));
+      // One matcher of each kind (one model load), shared by the rows that use it.
+      const auto net_icp =
+          obmnetIcpMatcher(model, threads, num_points, denoise, unit, polish, overlap_keep);
+      const auto icp = objectIcpMatcher(unit, polish);
+      methods.push_back(matcherMethod("obmnet+icp", net_icp));
+      methods.push_back(matcherMethod("icp", icp));
       // The competition with the identity start helps only where the identity is a meaningful
       // prior (consecutive sweeps in their sensor frames); on pairs with a random rotation the
       // identity's ICP often pairs more points in a wrong pose (docs/obm-bench.md), so it is
       // listed by default for the kitti protocol and on request (--methods) elsewhere.
-      auto either =
-          obmnetIcpOrIcpMethod(model, threads, num_points, denoise, unit, polish, overlap_keep);
-      if (protocol == "kitti" || !methods_arg.empty()) methods.push_back(std::move(either));
+      if (protocol == "kitti" || !methods_arg.empty())
+        methods.push_back(obmnetIcpOrIcpMethod(net_icp, icp));
       for (auto& m : bench::open3dMethods(scaledOpen3dParams(unit))) methods.push_back(std::move(m));
     }
     if (!methods_arg.empty()) {

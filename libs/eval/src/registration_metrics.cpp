@@ -49,7 +49,7 @@ RegistrationSummary RegistrationAccumulator::summary() const {
     }
     rre.push_back(p.rre_deg);
     rte.push_back(p.rte);
-    if (p.rre_deg < thresholds_.max_rre_deg && p.rte < thresholds_.max_rte) {
+    if (thresholds_.accepts(p.rre_deg, p.rte)) {
       rre_ok.push_back(p.rre_deg);
       rte_ok.push_back(p.rte);
     }

@@ -33,6 +33,8 @@ struct RecallThresholds {
   double max_rte = 2.0;      ///< [translation units, m for KITTI]
   /// The KITTI LiDAR registration protocol: 5° and 2 m.
   static RecallThresholds kitti() { return {5.0, 2.0}; }
+  /// Whether a pair with these errors counts as registered (both strictly below the thresholds).
+  bool accepts(double rre_deg, double rte) const { return rre_deg < max_rre_deg && rte < max_rte; }
 };
 
 /// Aggregated registration errors over all pairs added to a RegistrationAccumulator.
