@@ -35,6 +35,9 @@ std::array<double, 12> toRowMajor3x4(const Isometry3d& T) {
   return v;
 }
 
+namespace {
+
+// The nearest rotation by SVD, U·Vᵀ with the sign fixed so that det = +1.
 Eigen::Matrix3d orthonormalizeSvd(const Eigen::Matrix3d& R) {
   Eigen::JacobiSVD<Eigen::Matrix3d> svd(R, Eigen::ComputeFullU | Eigen::ComputeFullV);
   Eigen::Matrix3d U = svd.matrixU();
@@ -42,6 +45,8 @@ Eigen::Matrix3d orthonormalizeSvd(const Eigen::Matrix3d& R) {
   if ((U * V.transpose()).determinant() < 0) U.col(2) *= -1.0;
   return U * V.transpose();
 }
+
+}  // namespace
 
 Eigen::Matrix3d orthonormalize(const Eigen::Matrix3d& R) {
   // For det R > 0 the nearest rotation in the Frobenius norm is the orthogonal polar factor of R

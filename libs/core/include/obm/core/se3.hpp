@@ -25,7 +25,8 @@ Isometry3d fromRowMajor3x4(const std::array<double, 12>& v);
 /// The 12 numbers of the row-major 3×4 matrix [R|t].
 std::array<double, 12> toRowMajor3x4(const Isometry3d& T);
 
-/// Projects a nearly-orthonormal matrix onto SO(3) (SVD), keeping det = +1.
+/// The nearest rotation to R in the Frobenius norm (det = +1): its orthogonal polar factor by
+/// Newton's iteration, or the SVD for reflections and nearly singular input.
 Eigen::Matrix3d orthonormalize(const Eigen::Matrix3d& R);
 
 /// Geodesic rotation angle of R in radians, in [0, π] (robust to round-off).
