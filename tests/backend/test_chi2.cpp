@@ -233,3 +233,42 @@ TEST(Chi2, DcsLossIsConsistentAndWeightsLikeDcs) {
   loss.Evaluate(1e12, rho);
   EXPECT_LT(rho[0], 3 * phi);  // bounded: an outlier's cost saturates
 }
+
+TEST(Chi2, PoseManifoldEqualsCeresProductManifold) {
+  // The optimizer's written-out (t, q) manifold must be the product manifold the Jacobians above
+  // are derived for: same Plus, PlusJacobian, Minus and MinusJacobian.
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> n(0, 1);
+  const detail::PoseManifold ours;
+  const ceres::ProductManifold<ceres::EuclideanManifold<3>, ceres::EigenQuaternionManifold> ref;
+  ASSERT_EQ(ours.AmbientSize(), ref.AmbientSize());
+  ASSERT_EQ(ours.TangentSize(), ref.TangentSize());
+  for (int trial = 0; trial < 50; ++trial) {
+    const Pose3 a = randomPose(rng), b = randomPose(rng);
+    const std::array<double, 7> x{a.t.x(), a.t.y(), a.t.z(), a.q.x(), a.q.y(), a.q.z(), a.q.w()};
+    const std::array<double, 7> y{b.t.x(), b.t.y(), b.t.z(), b.q.x(), b.q.y(), b.q.z(), b.q.w()};
+    std::array<double, 6> delta{};
+    // Also the zero step (Ceres's quaternion Plus has a separate branch for it).
+    if (trial > 0)
+      for (double& d : delta) d = 0.5 * n(rng);
+    std::array<double, 7> p1{}, p2{};
+    ASSERT_TRUE(ours.Plus(x.data(), delta.data(), p1.data()));
+    ASSERT_TRUE(ref.Plus(x.data(), delta.data(), p2.data()));
+    for (int i = 0; i < 7; ++i) EXPECT_DOUBLE_EQ(p1[i], p2[i]) << "trial " << trial;
+
+    Eigen::Matrix<double, 7, 6, Eigen::RowMajor> P1, P2;
+    ASSERT_TRUE(ours.PlusJacobian(x.data(), P1.data()));
+    ASSERT_TRUE(ref.PlusJacobian(x.data(), P2.data()));
+    EXPECT_LT((P1 - P2).norm(), 1e-15) << "trial " << trial;
+
+    std::array<double, 6> m1{}, m2{};
+    ASSERT_TRUE(ours.Minus(y.data(), x.data(), m1.data()));
+    ASSERT_TRUE(ref.Minus(y.data(), x.data(), m2.data()));
+    for (int i = 0; i < 6; ++i) EXPECT_DOUBLE_EQ(m1[i], m2[i]) << "trial " << trial;
+
+    Eigen::Matrix<double, 6, 7, Eigen::RowMajor> M1, M2;
+    ASSERT_TRUE(ours.MinusJacobian(x.data(), M1.data()));
+    ASSERT_TRUE(ref.MinusJacobian(x.data(), M2.data()));
+    EXPECT_LT((M1 - M2).norm(), 1e-15) << "trial " << trial;
+  }
+}

@@ -40,6 +40,54 @@ inline Eigen::Matrix<double, 4, 3> quaternionPlusJacobian(const Eigen::Quaternio
   return P;
 }
 
+/// R³ × unit quaternions, the same manifold as
+/// ceres::ProductManifold<ceres::EuclideanManifold<3>, ceres::EigenQuaternionManifold> (block
+/// (t, q), t += δ_t, q ← exp(δ_θ) ⊗ q), written out: the product manifold dispatches to its
+/// factors through virtual calls and assembles the 7×6 PlusJacobian block by block, a measurable
+/// part of a 9-node graph's solve (docs/benchmarks.md, pose graph). Minus is delegated (not used
+/// by the trust-region minimiser).
+class PoseManifold final : public ceres::Manifold {
+ public:
+  int AmbientSize() const override { return 7; }
+  int TangentSize() const override { return 6; }
+
+  bool Plus(const double* x, const double* delta, double* x_plus_delta) const override {
+    x_plus_delta[0] = x[0] + delta[0];
+    x_plus_delta[1] = x[1] + delta[1];
+    x_plus_delta[2] = x[2] + delta[2];
+    return quaternion_.Plus(x + 3, delta + 3, x_plus_delta + 3);
+  }
+
+  bool PlusJacobian(const double* x, double* jacobian) const override {
+    Eigen::Map<Eigen::Matrix<double, 7, 6, Eigen::RowMajor>> J(jacobian);
+    J.setZero();
+    J.topLeftCorner<3, 3>().setIdentity();
+    J.bottomRightCorner<4, 3>() =
+        quaternionPlusJacobian(Eigen::Map<const Eigen::Quaterniond>(x + 3));
+    return true;
+  }
+
+  bool Minus(const double* y, const double* x, double* y_minus_x) const override {
+    y_minus_x[0] = y[0] - x[0];
+    y_minus_x[1] = y[1] - x[1];
+    y_minus_x[2] = y[2] - x[2];
+    return quaternion_.Minus(y + 3, x + 3, y_minus_x + 3);
+  }
+
+  bool MinusJacobian(const double* x, double* jacobian) const override {
+    Eigen::Map<Eigen::Matrix<double, 6, 7, Eigen::RowMajor>> J(jacobian);
+    J.setZero();
+    J.topLeftCorner<3, 3>().setIdentity();
+    Eigen::Matrix<double, 3, 4, Eigen::RowMajor> Jq;
+    if (!quaternion_.MinusJacobian(x + 3, Jq.data())) return false;
+    J.bottomRightCorner<3, 4>() = Jq;
+    return true;
+  }
+
+ private:
+  ceres::EigenQuaternionManifold quaternion_;
+};
+
 /// g2o EdgeSE3 residual with analytic Jacobians. Parameter blocks: one per node, (t, q) with
 /// t = x y z and q in Eigen order x y z w, on the manifold R³ × EigenQuaternionManifold (one 6-dof
 /// block per node keeps the block-sparse normal equations as small as the graph).

@@ -191,8 +191,7 @@ struct Optimizer::Impl {
   // Ceres state, rebuilt by setGraph, extended by addNode/addEdge.
   std::unique_ptr<ceres::Problem> problem;
   /// R³ × unit quaternions (Ceres' EigenQuaternionManifold) for a 3D node's (t, q) block.
-  std::unique_ptr<ceres::Manifold> pose_manifold = std::make_unique<
-      ceres::ProductManifold<ceres::EuclideanManifold<3>, ceres::EigenQuaternionManifold>>();
+  std::unique_ptr<ceres::Manifold> pose_manifold = std::make_unique<detail::PoseManifold>();
   std::map<std::pair<int, double>, std::unique_ptr<ceres::LossFunction>> losses;
   /// `dcs:auto`: the current Φ and the loss object that carries it (null until an edge uses it).
   double auto_phi = 1.0;
@@ -216,6 +215,9 @@ struct Optimizer::Impl {
       po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
       po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
       po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+      // Ceres's checks while building (a block added twice, an edge joining a node to itself,
+      // sizes) repeat PoseGraph::validate and checkEdgeEnds; they are a measurable part of a tiny graph's solve.
+      po.disable_all_safety_checks = true;
       problem = std::make_unique<ceres::Problem>(po);
     }
     return *problem;
