@@ -285,6 +285,41 @@ TEST(FrontendRobust, SuddenJumpIsRecoveredOrBridgedNeverSilentlyAccepted) {
   EXPECT_EQ(res.back().status, TrackingStatus::Tracked);
 }
 
+TEST(FrontendRobust, RecoveryFailingOnlyTheInlierRatioIsTakenWhenTheMatcherAgrees) {
+  // Five sweeps lost (1.25 s, time stamps true): the frame after the gap sees parts of the street
+  // the local map lacks. A recovery must pair as many points as the recent frames
+  // (recovery_relative_inlier_ratio = 1, which such a frame does not reach): without a second
+  // opinion the frame is bridged; with it the wide-gate match is confirmed by the scan matcher
+  // against the last keyframe and taken.
+  const auto& loop = simLoop();
+  const std::size_t gap_at = 24, gap = 5;
+  std::vector<std::size_t> fed;
+  for (std::size_t i = 0; i < gap_at; ++i) fed.push_back(i);
+  for (std::size_t i = gap_at + gap; i < gap_at + gap + 8; ++i) fed.push_back(i);
+  auto run = [&](double agreement_m) {
+    FrontendParams p = loopParams();
+    p.loop_closure.enabled = false;
+    p.tracking.recovery_relative_inlier_ratio = 1.0;
+    p.tracking.recovery_agreement_translation = agreement_m;
+    Frontend fe(p);
+    std::vector<FrameResult> res;
+    for (std::size_t k = 0; k < fed.size(); ++k) {
+      PointCloud sweep = loop.sweeps[fed[k]];
+      sweep.timestamp = 0.25 * static_cast<double>(fed[k]);  // 4 Hz, the gap visible
+      res.push_back(fe.process(sweep));
+    }
+    return std::make_pair(res, fe.trajectory());
+  };
+  const auto [off, traj_off] = run(0.0);
+  const std::size_t J = gap_at;  // the first frame after the gap
+  EXPECT_EQ(off[J].status, TrackingStatus::Bridged) << off[J].reason;
+  const auto [on, traj_on] = run(0.3);
+  ASSERT_EQ(on[J].status, TrackingStatus::Recovered) << on[J].reason;
+  EXPECT_NE(on[J].reason.find("confirmed by icp"), std::string::npos) << on[J].reason;
+  EXPECT_LT(poseError(loop.truth[fed[J]], traj_on[J]).first, 0.1);
+  EXPECT_GT(poseError(loop.truth[fed[J]], traj_off[J]).first, 1.0);
+}
+
 TEST(FrontendRobust, KidnappedSensorRestartsTheLocalMapWithAWeakBridgeEdge) {
   // After frame 10 the sweeps come from another side of the block: nothing matches the guess,
   // the frames are bridged, and after max_bridge_frames the local map restarts there.

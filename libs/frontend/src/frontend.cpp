@@ -6,6 +6,7 @@
 #include <deque>
 #include <filesystem>
 #include <future>
+#include <optional>
 #include <random>
 
 #include "obm/backend/optimizer.hpp"
@@ -121,9 +122,10 @@ MatcherChoice chooseMatcher(const FrontendParams& params) {
     c.message = "matcher: " + c.config.type + " (model " + model + ")";
     return c;
   }
-  const std::string why = available ? "the OBMNet model '" + model + "' of matcher.type '" +
-                                          params.matcher.type + "' does not exist"
-                                    : "this build has no OBMNet (LibTorch) to run the model '" + model + "'";
+  const std::string why =
+      available ? "the OBMNet model '" + model + "' of matcher.type '" + params.matcher.type +
+                      "' does not exist"
+                : "this build has no OBMNet (LibTorch) to run the model '" + model + "'";
   if (params.matcher_fallback.empty()) {
     if (!available)
       throw ConfigError("matcher.type '" + c.config.type + "': " + why +
@@ -165,6 +167,8 @@ struct Frontend::Impl {
   std::size_t local_map_first = 0;  // oldest keyframe the local map may use (after a restart)
   std::size_t frames_since_keyframe = 0;
   std::size_t bridge_run = 0;
+  /// The best wide-gate recovery of the current frame that failed only the relative inlier ratio.
+  std::optional<MatchResult> near;
   std::deque<double> recent_inliers;  // inlier ratios of the last tracked frames
   std::size_t next_loop_search = 0;   // keyframe id of the next loop search
   Isometry3d T_world_current = Isometry3d::Identity();
@@ -325,6 +329,7 @@ struct Frontend::Impl {
   void track(const PointCloud& source, const Isometry3d& T_guess, FrameResult& fr) {
     const TrackingParams& tp = p.tracking;
     const double inl_ref = recentInlierRatio();
+    near.reset();
     // Without a velocity yet (the second frame) the guess is the last pose and any motion up to
     // the recovery bound is normal: register with the wide, annealed gate of the recovery (a
     // narrow gate lets a street's ground and facades hold the scan where it was).
@@ -377,6 +382,12 @@ struct Frontend::Impl {
         } else if (why.empty() && !w.empty()) {
           why = w;
         }
+        // Fails only the relative inlier ratio: a candidate for the second opinion below.
+        if (!w.empty() && tp.recovery_agreement_translation > 0.0 &&
+            rejectReason(r, T_guess, recovery_q, 0.0, tp.recovery_max_correction, max_rot)
+                .empty() &&
+            (!near || r.inlier_ratio > near->inlier_ratio))
+          near = r;
       }
       if (found) {
         fr.match = best;
@@ -386,8 +397,9 @@ struct Frontend::Impl {
       }
       reason += "; wide-gate recovery: " + why;
     }
-    if (matcher_is_obmnet) {
-      // Last resort: the network against the last keyframe, from the same guess (pre-aligned).
+    if (matcher_is_obmnet || near) {
+      // Last resort: the scan matcher (the network when there is one) against the last keyframe,
+      // from the same guess (pre-aligned).
       const Keyframe& kf = keyframes.back();
       MatchResult r;
       {
@@ -397,6 +409,15 @@ struct Frontend::Impl {
         r = matcher->match(source, *last_keyframe_target, kf.T_world_sensor.inverse() * T_guess);
       }
       r.T_target_source = kf.T_world_sensor * r.T_target_source;
+      {
+        const Isometry3d d = T_guess.inverse() * r.T_target_source;
+        OBM_LOG_DEBUG(
+            kLog, "frame " << fr.index << ": " << matcher->name() << " recovery against keyframe "
+                           << kf.id << ": status " << toString(r.status) << ", quality "
+                           << r.quality << ", inlier ratio " << r.inlier_ratio << ", pairs "
+                           << r.num_correspondences << ", correction " << d.translation().norm()
+                           << " m / " << rotationAngle(d.linear()) * kRadToDeg << " deg");
+      }
       const std::string why =
           rejectReason(r, T_guess, recovery_q, recovery_inl, tp.recovery_max_correction, max_rot);
       if (why.empty()) {
@@ -404,6 +425,20 @@ struct Frontend::Impl {
         fr.status = TrackingStatus::Recovered;
         fr.reason = reason;
         return;
+      }
+      if (near && (r.status == MatchStatus::Ok || r.status == MatchStatus::NotConverged) &&
+          r.quality >= recovery_q) {
+        // Second opinion (TrackingParams::recovery_agreement_translation): two registrations
+        // against different targets (local map, last keyframe) that land on the same pose.
+        const Isometry3d d = near->T_target_source.inverse() * r.T_target_source;
+        if (d.translation().norm() <= tp.recovery_agreement_translation &&
+            rotationAngle(d.linear()) <= tp.recovery_agreement_rotation) {
+          fr.match = *near;
+          fr.status = TrackingStatus::Recovered;
+          fr.reason = reason + "; wide-gate recovery confirmed by " + matcher->name() +
+                      " against the last keyframe";
+          return;
+        }
       }
       reason += "; " + matcher->name() + " recovery: " + why;
     }

@@ -111,6 +111,10 @@ void TrackingParams::validate() const {
   require(finite(recovery_rotation_step) && recovery_rotation_step > 0.0,
           "recovery_rotation_step_deg", "must be > 0 [deg]");
   require(recovery_rotation_hypotheses >= 0, "recovery_rotation_hypotheses", "must be >= 0");
+  require(finite(recovery_agreement_translation) && recovery_agreement_translation >= 0.0,
+          "recovery_agreement_translation", "must be >= 0 [m] (0 = no second opinion)");
+  require(finite(recovery_agreement_rotation) && recovery_agreement_rotation > 0.0,
+          "recovery_agreement_rotation_deg", "must be > 0 [deg]");
   require(max_bridge_frames >= 1, "max_bridge_frames", "must be >= 1");
   require(finite(information_scale) && information_scale > 0.0, "information_scale", "must be > 0");
   require(finite(floor_sigma_translation) && floor_sigma_translation >= 0.0,
@@ -126,13 +130,27 @@ void TrackingParams::validate() const {
 }
 
 TrackingParams TrackingParams::load(const ConfigNode& node) {
-  node.checkKeys({"icp", "confidence", "min_quality", "max_correction",
-                  "max_correction_rotation_deg", "relative_inlier_ratio", "recovery_gate",
-                  "recovery_max_correction", "recovery_min_quality",
-                  "recovery_relative_inlier_ratio", "recovery_rotation_step_deg",
-                  "recovery_rotation_hypotheses", "max_bridge_frames", "information_scale",
-                  "floor_sigma_translation", "floor_sigma_rotation_deg", "bridge_sigma_translation",
-                  "bridge_sigma_rotation_deg", "use_timestamps"});
+  node.checkKeys({"icp",
+                  "confidence",
+                  "min_quality",
+                  "max_correction",
+                  "max_correction_rotation_deg",
+                  "relative_inlier_ratio",
+                  "recovery_gate",
+                  "recovery_max_correction",
+                  "recovery_min_quality",
+                  "recovery_relative_inlier_ratio",
+                  "recovery_rotation_step_deg",
+                  "recovery_rotation_hypotheses",
+                  "recovery_agreement_translation",
+                  "recovery_agreement_rotation_deg",
+                  "max_bridge_frames",
+                  "information_scale",
+                  "floor_sigma_translation",
+                  "floor_sigma_rotation_deg",
+                  "bridge_sigma_translation",
+                  "bridge_sigma_rotation_deg",
+                  "use_timestamps"});
   TrackingParams p;
   p.icp = IcpParams::load(node.child("icp"));
   p.confidence = ConfidenceParams::load(node.child("confidence"));
@@ -146,6 +164,8 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
   node.get("recovery_relative_inlier_ratio", p.recovery_relative_inlier_ratio);
   node.getDegAsRad("recovery_rotation_step_deg", p.recovery_rotation_step);
   node.get("recovery_rotation_hypotheses", p.recovery_rotation_hypotheses);
+  node.get("recovery_agreement_translation", p.recovery_agreement_translation);
+  node.getDegAsRad("recovery_agreement_rotation_deg", p.recovery_agreement_rotation);
   node.get("max_bridge_frames", p.max_bridge_frames);
   node.get("information_scale", p.information_scale);
   node.get("floor_sigma_translation", p.floor_sigma_translation);

@@ -90,6 +90,14 @@ struct TrackingParams {
   /// last motion (the vertical for a car), k = 1 … hypotheses; the best accepted match wins.
   double recovery_rotation_step = 10.0 * kDegToRad;  ///< [rad] (YAML `_deg`)
   int recovery_rotation_hypotheses = 2;              ///< k of each sign (0 = the guess only)
+  /// A second opinion for a recovery that fails only the relative inlier ratio (after a gap in
+  /// the sweeps the car has moved into parts the local map has not seen, so a right match pairs
+  /// fewer points than the frames before): the scan matcher registers the frame against the last
+  /// keyframe alone, and when its pose (quality ≥ recovery_min_quality) agrees with the
+  /// local-map match within this translation and rotation, the local-map match is taken.
+  /// 0 = no second opinion.
+  double recovery_agreement_translation = 0.0;           ///< [m]
+  double recovery_agreement_rotation = 1.0 * kDegToRad;  ///< [rad] (YAML `_deg`)
   /// After this many bridged frames in a row the local map is restarted from the current frame
   /// (a keyframe joined to the previous one by a weak bridge edge). >= 1.
   std::size_t max_bridge_frames = 10;
