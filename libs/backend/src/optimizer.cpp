@@ -199,6 +199,7 @@ struct Optimizer::Impl {
   std::deque<std::array<double, 7>> blocks;  // 3D: t(3) q(4: x y z w); 2D: x y θ
   std::unordered_map<NodeId, double*> block_of;
   std::size_t edges_in_problem = 0;
+  std::size_t edges_with_loss = 0;  ///< residual blocks with a loss function
 
   explicit Impl(Options o) : opt(std::move(o)) {}
 
@@ -207,6 +208,7 @@ struct Optimizer::Impl {
     blocks.clear();
     block_of.clear();
     edges_in_problem = 0;
+    edges_with_loss = 0;
   }
 
   ceres::Problem& ensureProblem() {
@@ -269,12 +271,16 @@ struct Optimizer::Impl {
       double* b = block_of.at(e.to);
       auto* cost = new detail::EdgeSe3Cost(e.T_from_to.t, e.T_from_to.q,
                                            detail::sqrtInformation<6>(e.information));
-      pr.AddResidualBlock(cost, lossFor(e.loss, e.is_loop), a, b);
+      ceres::LossFunction* loss = lossFor(e.loss, e.is_loop);
+      edges_with_loss += loss ? 1 : 0;
+      pr.AddResidualBlock(cost, loss, a, b);
     } else {
       const Edge2& e = graph.edges2[k];
       auto* cost = new detail::EdgeSe2Cost(e.T_from_to.x, e.T_from_to.y, e.T_from_to.theta,
                                            detail::sqrtInformation<3>(e.information));
-      pr.AddResidualBlock(cost, lossFor(e.loss, e.is_loop), block_of.at(e.from), block_of.at(e.to));
+      ceres::LossFunction* loss = lossFor(e.loss, e.is_loop);
+      edges_with_loss += loss ? 1 : 0;
+      pr.AddResidualBlock(cost, loss, block_of.at(e.from), block_of.at(e.to));
     }
   }
 
@@ -472,6 +478,7 @@ struct Optimizer::Impl {
                      : opt.loop_loss.scale * opt.loop_loss.scale;
 
     syncProblem();
+    const bool plain_least_squares = edges_with_loss == 0;
     const auto ids = graph.nodeIds();
     std::unordered_map<NodeId, int> index;
     index.reserve(ids.size());
@@ -587,12 +594,15 @@ struct Optimizer::Impl {
             break;
         }
         s.init_time_s += init_timer.seconds();
-        const double init_chi2 = chi2(graph);
+        // Without loss functions Ceres's initial cost is ½·Σ‖W·e‖² = ½·χ² (WᵀW = Ω), evaluated
+        // anyway; with them it is the robustified cost, so χ² is evaluated separately.
+        const double init_chi2_direct = plain_least_squares ? 0.0 : chi2(graph);
         Timer solve_timer;
         posesToBlocks();
         ceres::Solver::Summary cs;
         ceres::Solve(so, problem.get(), &cs);
         blocksToPoses();
+        const double init_chi2 = plain_least_squares ? 2.0 * cs.initial_cost : init_chi2_direct;
         s.solve_time_s += solve_timer.seconds();
         s.iterations += cs.num_successful_steps + cs.num_unsuccessful_steps;
         if (!cs.IsSolutionUsable())
