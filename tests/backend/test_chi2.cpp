@@ -35,6 +35,11 @@ Pose3 randomPose(std::mt19937_64& rng, double t = 3.0) {
   return Pose3(Eigen::Vector3d(t * n(rng), t * n(rng), t * n(rng)), q.normalized());
 }
 
+/// A node's Ceres parameter block: t = x y z, q = x y z w (Eigen order).
+std::array<double, 7> poseBlock(const Pose3& p) {
+  return {p.t.x(), p.t.y(), p.t.z(), p.q.x(), p.q.y(), p.q.z(), p.q.w()};
+}
+
 PoseGraph twoNodeGraph(const Pose3& a, const Pose3& b, const Pose3& z, const Matrix6d& omega) {
   PoseGraph g;
   g.nodes3[0] = Node3{0, a};
@@ -114,8 +119,7 @@ TEST(Chi2, CeresResidualIsExactlyG2oChi2) {
     const Pose3 a = randomPose(rng), b = randomPose(rng), z = randomPose(rng);
     const Matrix6d O = randomSpd6(rng);
     detail::EdgeSe3Cost cost(z.t, z.q, detail::sqrtInformation<6>(O));
-    std::array<double, 7> pa{a.t.x(), a.t.y(), a.t.z(), a.q.x(), a.q.y(), a.q.z(), a.q.w()};
-    std::array<double, 7> pb{b.t.x(), b.t.y(), b.t.z(), b.q.x(), b.q.y(), b.q.z(), b.q.w()};
+    std::array<double, 7> pa = poseBlock(a), pb = poseBlock(b);
     const double* params[2] = {pa.data(), pb.data()};
     Eigen::Matrix<double, 6, 1> r;
     ASSERT_TRUE(cost.Evaluate(params, r.data(), nullptr));
@@ -150,8 +154,7 @@ TEST(Chi2, Se3AnalyticJacobiansMatchAutoDiff) {
     detail::EdgeSe3Cost analytic(z.t, z.q, W);
     ceres::AutoDiffCostFunction<detail::EdgeSe3AutoDiff, 6, 7, 7> autodiff(
         new detail::EdgeSe3AutoDiff(z.t, z.q, W));
-    std::array<double, 7> pa{a.t.x(), a.t.y(), a.t.z(), a.q.x(), a.q.y(), a.q.z(), a.q.w()};
-    std::array<double, 7> pb{b.t.x(), b.t.y(), b.t.z(), b.q.x(), b.q.y(), b.q.z(), b.q.w()};
+    std::array<double, 7> pa = poseBlock(a), pb = poseBlock(b);
     const double* params[2] = {pa.data(), pb.data()};
     Eigen::Matrix<double, 6, 1> r1, r2;
     Eigen::Matrix<double, 6, 7, Eigen::RowMajor> J1[2], J2[2];
@@ -245,8 +248,7 @@ TEST(Chi2, PoseManifoldEqualsCeresProductManifold) {
   ASSERT_EQ(ours.TangentSize(), ref.TangentSize());
   for (int trial = 0; trial < 50; ++trial) {
     const Pose3 a = randomPose(rng), b = randomPose(rng);
-    const std::array<double, 7> x{a.t.x(), a.t.y(), a.t.z(), a.q.x(), a.q.y(), a.q.z(), a.q.w()};
-    const std::array<double, 7> y{b.t.x(), b.t.y(), b.t.z(), b.q.x(), b.q.y(), b.q.z(), b.q.w()};
+    const std::array<double, 7> x = poseBlock(a), y = poseBlock(b);
     std::array<double, 6> delta{};
     // Also the zero step (Ceres's quaternion Plus has a separate branch for it).
     if (trial > 0)

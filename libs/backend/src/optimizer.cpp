@@ -1,8 +1,6 @@
 // Ceres pose-graph optimizer minimising g2o's χ² (see cost_functions.hpp for the residuals).
 #include "obm/backend/optimizer.hpp"
 
-#include "obm/backend/blas_threads.hpp"
-
 #include <ceres/ceres.h>
 
 #include <Eigen/SparseCholesky>
@@ -20,6 +18,7 @@
 
 #include "cost_functions.hpp"
 #include "information.hpp"
+#include "obm/backend/blas_threads.hpp"
 #include "obm/backend/metrics.hpp"
 #include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
@@ -218,7 +217,8 @@ struct Optimizer::Impl {
       po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
       po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
       // Ceres's checks while building (a block added twice, an edge joining a node to itself,
-      // sizes) repeat PoseGraph::validate and checkEdgeEnds; they are a measurable part of a tiny graph's solve.
+      // sizes) repeat PoseGraph::validate and checkEdgeEnds; they are a measurable part of a tiny
+      // graph's solve.
       po.disable_all_safety_checks = true;
       problem = std::make_unique<ceres::Problem>(po);
     }

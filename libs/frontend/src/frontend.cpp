@@ -167,8 +167,6 @@ struct Frontend::Impl {
   std::size_t local_map_first = 0;  // oldest keyframe the local map may use (after a restart)
   std::size_t frames_since_keyframe = 0;
   std::size_t bridge_run = 0;
-  /// The best wide-gate recovery of the current frame that failed only the relative inlier ratio.
-  std::optional<MatchResult> near;
   std::deque<double> recent_inliers;  // inlier ratios of the last tracked frames
   std::size_t next_loop_search = 0;   // keyframe id of the next loop search
   Isometry3d T_world_current = Isometry3d::Identity();
@@ -329,7 +327,8 @@ struct Frontend::Impl {
   void track(const PointCloud& source, const Isometry3d& T_guess, FrameResult& fr) {
     const TrackingParams& tp = p.tracking;
     const double inl_ref = recentInlierRatio();
-    near.reset();
+    // The best wide-gate recovery that fails only the relative inlier ratio (second opinion).
+    std::optional<MatchResult> near;
     // Without a velocity yet (the second frame) the guess is the last pose and any motion up to
     // the recovery bound is normal: register with the wide, annealed gate of the recovery (a
     // narrow gate lets a street's ground and facades hold the scan where it was).
@@ -426,8 +425,8 @@ struct Frontend::Impl {
         fr.reason = reason;
         return;
       }
-      if (near && (r.status == MatchStatus::Ok || r.status == MatchStatus::NotConverged) &&
-          r.quality >= recovery_q) {
+      if (near &&
+          rejectReason(r, T_guess, recovery_q, 0.0, tp.recovery_max_correction, max_rot).empty()) {
         // Second opinion (TrackingParams::recovery_agreement_translation): two registrations
         // against different targets (local map, last keyframe) that land on the same pose.
         const Isometry3d d = near->T_target_source.inverse() * r.T_target_source;

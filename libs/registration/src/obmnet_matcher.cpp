@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <optional>
 
 #include "obm/core/errors.hpp"
@@ -42,7 +43,7 @@ struct NetworkStage {
   Isometry3d T_target_source = Isometry3d::Identity();  ///< network pose (composed with T_init)
   double alpha = 1.0, overlap = 0.0;
   std::vector<Vector3f> sampled;  ///< the network's source points, source frame
-  std::vector<double> prior;  ///< w_i·(1 + α·m_i): the network's SVD weights (docs/model.md)
+  std::vector<double> prior;      ///< w_i·(1 + α·m_i): the network's SVD weights (docs/model.md)
 };
 
 NetworkStage runNetwork(const ObmNetRegistrar& reg, const ObmNetMatcherParams& p,
@@ -176,14 +177,19 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
     // Overlap stage: ICP on the points the network weights most (its SVD weights ω), so the
     // first refinement sees the overlap the network found rather than the whole partial cloud.
     std::vector<std::size_t> order(net.sampled.size());
-    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    // keep ≤ 1, so 1 ≤ n_keep ≤ the number of sampled points; only the top n_keep are ordered
+    // (ties by index, so the choice is deterministic).
     const auto n_keep = std::max<std::size_t>(
         1, static_cast<std::size_t>(std::lround(keep * static_cast<double>(order.size()))));
-    std::stable_sort(order.begin(), order.end(),
-                     [&](std::size_t a, std::size_t b) { return net.prior[a] > net.prior[b]; });
+    std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(n_keep),
+                      order.end(), [&](std::size_t a, std::size_t b) {
+                        return net.prior[a] > net.prior[b] ||
+                               (net.prior[a] == net.prior[b] && a < b);
+                      });
     std::vector<Vector3f> core;
     core.reserve(n_keep);
-    for (std::size_t i = 0; i < n_keep && i < order.size(); ++i) core.push_back(net.sampled[order[i]]);
+    for (std::size_t i = 0; i < n_keep; ++i) core.push_back(net.sampled[order[i]]);
     IcpParams stage = icp_;
     stage.initial_max_correspondence_distance =
         impl_->params.overlap_stage_gate_factor * icp_.max_correspondence_distance;
