@@ -9,6 +9,7 @@
 #include "obm/backend/graph_io.hpp"
 #include "obm/eval/trajectory_metrics.hpp"
 #include "obm/frontend/frontend.hpp"
+#include "obm/registration/icp.hpp"
 #include "sim_loop.hpp"
 #include "test_data.hpp"
 
@@ -318,6 +319,81 @@ TEST(FrontendRobust, RecoveryFailingOnlyTheInlierRatioIsTakenWhenTheMatcherAgree
   EXPECT_NE(on[J].reason.find("confirmed by icp"), std::string::npos) << on[J].reason;
   EXPECT_LT(poseError(loop.truth[fed[J]], traj_on[J]).first, 0.1);
   EXPECT_GT(poseError(loop.truth[fed[J]], traj_off[J]).first, 1.0);
+}
+
+/// Stands in for a global matcher (OBMNet when it registers a pair right): ICP started from the
+/// true relative pose, which the test sets before each sweep, whatever the guess.
+class TruthStartMatcher : public ScanMatcher {
+ public:
+  TruthStartMatcher(const IcpParams& icp, const ConfidenceParams& confidence)
+      : ScanMatcher(icp, confidence), icp_matcher_(icp, confidence) {}
+  std::string name() const override { return "truth-start"; }
+  bool global() const override { return true; }
+  Isometry3d T_target_source_true = Isometry3d::Identity();
+
+ protected:
+  MatchResult impl_match(const PointCloud& source, const PreparedTarget& target,
+                         const Isometry3d& /*guess*/) const override {
+    return icp_matcher_.match(source, target, T_target_source_true);
+  }
+
+ private:
+  IcpMatcher icp_matcher_;
+};
+
+TEST(FrontendRobust, AJumpRegisteredOnTwoSweepsIsTaken) {
+  // Four sweeps lost while the time stamps look regular: the guess is ~10 m short, beyond the
+  // wide-gate recovery (recovery_max_correction). A global matcher registers the first sweep after
+  // the jump against the last keyframe; that alone is not trusted (the frame is bridged), but
+  // when the next sweep's registration lands on it moved by the constant-velocity step, both
+  // take their registered poses and tracking goes on from there.
+  const auto& loop = simLoop();
+  const std::size_t jump_at = 14, lost = 4;
+  std::vector<std::size_t> fed;
+  for (std::size_t i = 0; i < jump_at; ++i) fed.push_back(i);
+  for (std::size_t i = jump_at + lost; i < jump_at + lost + 10; ++i) fed.push_back(i);
+  auto run = [&](bool confirm_jumps) {
+    FrontendParams p = loopParams();
+    p.loop_closure.enabled = false;
+    p.tracking.recovery_max_correction = 4.0;
+    p.tracking.recovery_agreement_translation = 0.3;
+    p.tracking.recovery_confirm_jumps = confirm_jumps;
+    p.tracking.recovery_confirmed_relative_inlier_ratio = 0.5;
+    auto owned = std::make_unique<TruthStartMatcher>(p.matcher.icp, p.matcher.confidence);
+    TruthStartMatcher* matcher = owned.get();
+    Frontend fe(p, std::move(owned));
+    std::vector<FrameResult> res;
+    for (std::size_t k = 0; k < fed.size(); ++k) {
+      if (!fe.keyframes().empty()) {
+        const std::size_t kf = fe.keyframes().back().frame_index;
+        matcher->T_target_source_true = loop.truth[fed[kf]].inverse() * loop.truth[fed[k]];
+      }
+      PointCloud sweep = loop.sweeps[fed[k]];
+      sweep.timestamp = 0.25 * static_cast<double>(k);  // hides the jump
+      res.push_back(fe.process(sweep));
+    }
+    return std::make_tuple(res, fe.trajectory(), fe.stats());
+  };
+  const std::size_t J = jump_at;  // the first sweep after the jump
+  const auto [off, traj_off, stats_off] = run(false);
+  EXPECT_EQ(off[J].status, TrackingStatus::Bridged) << off[J].reason;
+  EXPECT_EQ(off[J + 1].status, TrackingStatus::Bridged) << off[J + 1].reason;
+  EXPECT_GT(poseError(loop.truth[fed[J + 1]], traj_off[J + 1]).first, 5.0);
+
+  const auto [on, traj_on, stats_on] = run(true);
+  EXPECT_EQ(on[J].status, TrackingStatus::Bridged) << on[J].reason;  // one registration: not yet
+  ASSERT_EQ(on[J + 1].status, TrackingStatus::Recovered) << on[J + 1].reason;
+  EXPECT_NE(on[J + 1].reason.find("on this sweep and the one before"), std::string::npos)
+      << on[J + 1].reason;
+  // Both sweeps end at their registered poses (the first one moved after the fact) …
+  EXPECT_LT(poseError(loop.truth[fed[J]], traj_on[J]).first, 0.1);
+  EXPECT_LT(poseError(loop.truth[fed[J + 1]], traj_on[J + 1]).first, 0.1);
+  EXPECT_EQ(stats_on.bridged, 0u);
+  EXPECT_EQ(stats_on.restarts, 0u);
+  // … and the velocity is the one before the jump, not the jump: the drive goes on, tracked.
+  for (std::size_t k = J + 2; k < fed.size(); ++k)
+    EXPECT_LT(poseError(loop.truth[fed[k]], traj_on[k]).first, 0.15) << "frame " << k;
+  EXPECT_EQ(on.back().status, TrackingStatus::Tracked);
 }
 
 TEST(FrontendRobust, KidnappedSensorRestartsTheLocalMapWithAWeakBridgeEdge) {

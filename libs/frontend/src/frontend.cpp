@@ -6,6 +6,7 @@
 #include <deque>
 #include <filesystem>
 #include <future>
+#include <limits>
 #include <optional>
 #include <random>
 
@@ -145,7 +146,7 @@ MatcherChoice chooseMatcher(const FrontendParams& params) {
 struct Frontend::Impl {
   FrontendParams p;
   std::unique_ptr<ScanMatcher> matcher;  // loop verification, last-resort recovery
-  bool matcher_is_obmnet = false;
+  bool matcher_is_global = false;  // registers without the guess (OBMNet)
   std::unique_ptr<IcpMatcher> tracker;   // frame → local map
   std::unique_ptr<IcpMatcher> recovery;  // frame → local map, annealed wide gate
   KeyframeSelector selector;
@@ -168,6 +169,16 @@ struct Frontend::Impl {
   std::size_t frames_since_keyframe = 0;
   std::size_t bridge_run = 0;
   std::deque<double> recent_inliers;  // inlier ratios of the last tracked frames
+  // A matcher registration that may be a sudden jump, waiting for the next sweep to confirm it
+  // (TrackingParams::recovery_confirm_jumps).
+  struct JumpCandidate {
+    std::size_t frame = 0;      // its frame index
+    std::size_t keyframes = 0;  // the number of keyframes then (a new keyframe voids it)
+    Isometry3d T_guess = Isometry3d::Identity();         // its constant-velocity guess
+    Isometry3d T_world_sensor = Isometry3d::Identity();  // its registered pose
+  };
+  std::optional<JumpCandidate> jump_candidate;  // from the last sweep, if any
+  std::optional<JumpCandidate> confirmed_jump;  // set by track(), applied by process()
   std::size_t next_loop_search = 0;   // keyframe id of the next loop search
   Isometry3d T_world_current = Isometry3d::Identity();
   double travelled = 0.0;
@@ -182,7 +193,7 @@ struct Frontend::Impl {
         rng(params.preprocess.seed),
         optimizer(params.optimizer) {
     p.validate();
-    matcher_is_obmnet = matcher->name().find("obmnet") != std::string::npos;
+    matcher_is_global = matcher->global();
     tracker = std::make_unique<IcpMatcher>(p.tracking.icp, p.tracking.confidence);
     if (p.tracking.recovery_gate > 0.0) {
       IcpParams r = p.tracking.icp;
@@ -193,7 +204,7 @@ struct Frontend::Impl {
     }
   }
 
-  const char* verifyStage() const { return matcher_is_obmnet ? "obmnet" : "loop_icp"; }
+  const char* verifyStage() const { return matcher_is_global ? "obmnet" : "loop_icp"; }
 
   // ---------------------------------------------------------------------------------------
   FrameResult process(const PointCloud& sweep) {
@@ -248,6 +259,18 @@ struct Frontend::Impl {
       if (fr.status != TrackingStatus::Bridged) T = fr.match.T_target_source;
     }
 
+    if (confirmed_jump) {
+      applyConfirmedJump(*confirmed_jump);
+    } else if (fr.status == TrackingStatus::Recovered) {
+      // A recovery beyond what tracking may correct is a jump (lost sweeps): the velocity before
+      // it still holds, so the history moves with the correction instead of absorbing it.
+      const Isometry3d d = T_guess.inverse() * T;
+      if (d.translation().norm() > p.tracking.max_correction ||
+          rotationAngle(d.linear()) > p.tracking.max_correction_rotation)
+        motion.applyCorrection(T * T_guess.inverse());
+    }
+    confirmed_jump.reset();
+
     switch (fr.status) {
       case TrackingStatus::Tracked:
         ++stats.tracked;
@@ -258,7 +281,7 @@ struct Frontend::Impl {
         bridge_run = 0;
         OBM_LOG_WARN_THROTTLE(
             kLog, 2.0,
-            "frame " << fr.index << ": recovered with a wide-gate match (" << fr.reason << ")");
+            "frame " << fr.index << ": recovered (" << fr.reason << ")");
         break;
       default:
         ++stats.bridged;
@@ -302,6 +325,23 @@ struct Frontend::Impl {
     return fr;
   }
 
+  /// The sweep before this one, bridged with the constant-velocity guess, had a registration
+  /// that this sweep's confirmed: it moves there, and the motion model restarts from it (its
+  /// bridged pose would turn the jump into a velocity).
+  void applyConfirmedJump(const JumpCandidate& jump) {
+    FrameRecord& prev = frames.back();
+    if (prev.status == TrackingStatus::Bridged && prev.keyframe == keyframes.back().id) {
+      prev.T_keyframe_frame = keyframes.back().T_world_sensor.inverse() * jump.T_world_sensor;
+      prev.status = TrackingStatus::Recovered;
+      --stats.bridged;
+      ++stats.recovered;
+    }
+    travelled += (T_world_current.inverse() * jump.T_world_sensor).translation().norm();
+    T_world_current = jump.T_world_sensor;
+    motion.reset();
+    motion.update(jump.T_world_sensor, prev.timestamp);
+  }
+
   void record(FrameResult& fr, const Isometry3d& T_world_frame) {
     FrameRecord rec;
     rec.timestamp = fr.timestamp;
@@ -327,6 +367,8 @@ struct Frontend::Impl {
   void track(const PointCloud& source, const Isometry3d& T_guess, FrameResult& fr) {
     const TrackingParams& tp = p.tracking;
     const double inl_ref = recentInlierRatio();
+    std::optional<JumpCandidate> previous_jump;  // the last sweep's candidate, if any
+    previous_jump.swap(jump_candidate);
     // The best wide-gate recovery that fails only the relative inlier ratio (second opinion).
     std::optional<MatchResult> near;
     // Without a velocity yet (the second frame) the guess is the last pose and any motion up to
@@ -351,6 +393,7 @@ struct Frontend::Impl {
     const double max_rot = 4.0 * tp.max_correction_rotation;
     const double recovery_q = tp.recovery_min_quality;
     const double recovery_inl = tp.recovery_relative_inlier_ratio * inl_ref;
+    const double confirmed_inl = tp.recovery_confirmed_relative_inlier_ratio * inl_ref;
     if (recovery) {
       // Hypotheses: the guess, then the guess turned about the axis of the last motion (a car's
       // vertical) by ±k·step — a wrong turn rate is the usual cause of a lost track.
@@ -383,7 +426,7 @@ struct Frontend::Impl {
         }
         // Fails only the relative inlier ratio: a candidate for the second opinion below.
         if (!w.empty() && tp.recovery_agreement_translation > 0.0 &&
-            rejectReason(r, T_guess, recovery_q, 0.0, tp.recovery_max_correction, max_rot)
+            rejectReason(r, T_guess, recovery_q, confirmed_inl, tp.recovery_max_correction, max_rot)
                 .empty() &&
             (!near || r.inlier_ratio > near->inlier_ratio))
           near = r;
@@ -391,14 +434,14 @@ struct Frontend::Impl {
       if (found) {
         fr.match = best;
         fr.status = TrackingStatus::Recovered;
-        fr.reason = reason;
+        fr.reason = reason + "; taken: the wide-gate recovery";
         return;
       }
       reason += "; wide-gate recovery: " + why;
     }
-    if (matcher_is_obmnet || near) {
-      // Last resort: the scan matcher (the network when there is one) against the last keyframe,
-      // from the same guess (pre-aligned).
+    if (matcher_is_global || near) {
+      // Last resort: the scan matcher against the last keyframe, from the same guess (pre-aligned);
+      // a global matcher (the network) does not depend on it.
       const Keyframe& kf = keyframes.back();
       MatchResult r;
       {
@@ -422,11 +465,12 @@ struct Frontend::Impl {
       if (why.empty()) {
         fr.match = r;
         fr.status = TrackingStatus::Recovered;
-        fr.reason = reason;
+        fr.reason = reason + "; taken: " + matcher->name() + " against the last keyframe";
         return;
       }
-      if (near &&
-          rejectReason(r, T_guess, recovery_q, 0.0, tp.recovery_max_correction, max_rot).empty()) {
+      if (near && rejectReason(r, T_guess, recovery_q, confirmed_inl, tp.recovery_max_correction,
+                               max_rot)
+                      .empty()) {
         // Second opinion (TrackingParams::recovery_agreement_translation): two registrations
         // against different targets (local map, last keyframe) that land on the same pose.
         const Isometry3d d = near->T_target_source.inverse() * r.T_target_source;
@@ -434,10 +478,37 @@ struct Frontend::Impl {
             rotationAngle(d.linear()) <= tp.recovery_agreement_rotation) {
           fr.match = *near;
           fr.status = TrackingStatus::Recovered;
-          fr.reason = reason + "; wide-gate recovery confirmed by " + matcher->name() +
+          fr.reason = reason + "; taken: the wide-gate recovery, confirmed by " + matcher->name() +
                       " against the last keyframe";
           return;
         }
+      }
+      // A sudden jump (TrackingParams::recovery_confirm_jumps): the matcher's
+      // registration needs no guess, so its correction is not bounded here; what confirms it is
+      // the next sweep landing on it moved by the constant-velocity step (two sweeps, two
+      // registrations against the keyframe).
+      constexpr double kAny = std::numeric_limits<double>::infinity();
+      if (tp.recovery_confirm_jumps &&
+          rejectReason(r, T_guess, recovery_q, confirmed_inl, kAny, kAny).empty()) {
+        if (previous_jump && previous_jump->frame + 1 == fr.index &&
+            previous_jump->keyframes == keyframes.size()) {
+          const Isometry3d T_predicted =
+              previous_jump->T_world_sensor * (previous_jump->T_guess.inverse() * T_guess);
+          const Isometry3d d = T_predicted.inverse() * r.T_target_source;
+          if (d.translation().norm() <= tp.recovery_agreement_translation &&
+              rotationAngle(d.linear()) <= tp.recovery_agreement_rotation) {
+            const Isometry3d jump = T_guess.inverse() * r.T_target_source;
+            fr.match = r;
+            fr.status = TrackingStatus::Recovered;
+            fr.reason = reason + "; taken: a jump of " + std::to_string(jump.translation().norm()) +
+                        " m / " + std::to_string(rotationAngle(jump.linear()) * kRadToDeg) +
+                        " deg, registered by " + matcher->name() +
+                        " on this sweep and the one before";
+            confirmed_jump = previous_jump;
+            return;
+          }
+        }
+        jump_candidate = JumpCandidate{fr.index, keyframes.size(), T_guess, r.T_target_source};
       }
       reason += "; " + matcher->name() + " recovery: " + why;
     }

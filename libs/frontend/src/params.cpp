@@ -115,6 +115,12 @@ void TrackingParams::validate() const {
           "recovery_agreement_translation", "must be >= 0 [m] (0 = no second opinion)");
   require(finite(recovery_agreement_rotation) && recovery_agreement_rotation > 0.0,
           "recovery_agreement_rotation_deg", "must be > 0 [deg]");
+  require(recovery_confirmed_relative_inlier_ratio >= 0.0 &&
+              recovery_confirmed_relative_inlier_ratio <= 1.0,
+          "recovery_confirmed_relative_inlier_ratio", "must be in [0, 1]");
+  require(!recovery_confirm_jumps || recovery_agreement_translation > 0.0,
+          "recovery_confirm_jumps",
+          "needs recovery_agreement_translation > 0 (the agreement that confirms a jump)");
   require(max_bridge_frames >= 1, "max_bridge_frames", "must be >= 1");
   require(finite(information_scale) && information_scale > 0.0, "information_scale", "must be > 0");
   require(finite(floor_sigma_translation) && floor_sigma_translation >= 0.0,
@@ -144,6 +150,8 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
                   "recovery_rotation_hypotheses",
                   "recovery_agreement_translation",
                   "recovery_agreement_rotation_deg",
+                  "recovery_confirm_jumps",
+                  "recovery_confirmed_relative_inlier_ratio",
                   "max_bridge_frames",
                   "information_scale",
                   "floor_sigma_translation",
@@ -166,6 +174,8 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
   node.get("recovery_rotation_hypotheses", p.recovery_rotation_hypotheses);
   node.get("recovery_agreement_translation", p.recovery_agreement_translation);
   node.getDegAsRad("recovery_agreement_rotation_deg", p.recovery_agreement_rotation);
+  node.get("recovery_confirm_jumps", p.recovery_confirm_jumps);
+  node.get("recovery_confirmed_relative_inlier_ratio", p.recovery_confirmed_relative_inlier_ratio);
   node.get("max_bridge_frames", p.max_bridge_frames);
   node.get("information_scale", p.information_scale);
   node.get("floor_sigma_translation", p.floor_sigma_translation);

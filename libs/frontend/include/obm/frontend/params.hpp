@@ -98,6 +98,18 @@ struct TrackingParams {
   /// 0 = no second opinion.
   double recovery_agreement_translation = 0.0;           ///< [m]
   double recovery_agreement_rotation = 1.0 * kDegToRad;  ///< [rad] (YAML `_deg`)
+  /// A sudden jump (sweeps lost without a gap in the time stamps, so the guess is metres off):
+  /// the matcher's registration against the last keyframe does not need the guess, but its inlier
+  /// ratio falls with the overlap. One that fails recovery_relative_inlier_ratio and
+  /// recovery_max_correction is kept as a candidate; it is taken when the next sweep's
+  /// registration lands on it moved by the constant-velocity step (within
+  /// recovery_agreement_translation / _rotation), and the candidate sweep, bridged meanwhile, is
+  /// moved to its registered pose. Needs recovery_agreement_translation > 0.
+  bool recovery_confirm_jumps = false;
+  /// A recovery taken on a confirmation (the second opinion, a confirmed jump) still needs this
+  /// share of the recent inlier ratio: two registrations from the same guess can agree on the
+  /// same wrong pose (a street seen from a few metres further along it). [0, 1]
+  double recovery_confirmed_relative_inlier_ratio = 0.0;
   /// After this many bridged frames in a row the local map is restarted from the current frame
   /// (a keyframe joined to the previous one by a weak bridge edge). >= 1.
   std::size_t max_bridge_frames = 10;

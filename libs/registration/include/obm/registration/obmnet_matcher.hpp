@@ -58,6 +58,7 @@ class ObmNetMatcher : public ScanMatcher {
                 const ConfidenceParams& confidence = ConfidenceParams());
   ~ObmNetMatcher() override;
   std::string name() const override { return "obmnet"; }
+  bool global() const override { return true; }
   /// The loaded model's summary.
   std::string describe() const;
 
@@ -77,6 +78,7 @@ class ObmNetIcpMatcher : public ScanMatcher {
                    const ConfidenceParams& confidence = ConfidenceParams());
   ~ObmNetIcpMatcher() override;
   std::string name() const override { return "obmnet+icp"; }
+  bool global() const override { return true; }
   std::string describe() const;
 
  protected:
