@@ -238,6 +238,15 @@ optimizer: {init: file, max_iterations: 20}
   expectError("loop_closure: {descriptor: {sectors: 2}}", "sectors");
   expectError("matcher: {type: sift}", "matcher.type");
   expectError("local_map: {keyframes: 0}", "keyframes");
+  expectError("tracking: {recovery_confirm_jumps: true}", "recovery_confirm_jumps");
+  expectError("tracking: {recovery_confirmed_relative_inlier_ratio: 1.5}",
+              "recovery_confirmed_relative_inlier_ratio");
+  const FrontendParams jumps = FrontendParams::load(ConfigNode::fromString(
+      "tracking: {recovery_agreement_translation: 0.3, recovery_confirm_jumps: true,\n"
+      "           recovery_confirmed_relative_inlier_ratio: 0.5}",
+      "jumps.yaml"));
+  EXPECT_TRUE(jumps.tracking.recovery_confirm_jumps);
+  EXPECT_DOUBLE_EQ(jumps.tracking.recovery_confirmed_relative_inlier_ratio, 0.5);
 }
 
 TEST(FrontendParams, MissingModelFallsBackOnlyWhenConfigured) {

@@ -108,7 +108,7 @@ struct TrackingParams {
   bool recovery_confirm_jumps = false;
   /// A recovery taken on a confirmation (the second opinion, a confirmed jump) still needs this
   /// share of the recent inlier ratio: two registrations from the same guess can agree on the
-  /// same wrong pose (a street seen from a few metres further along it). [0, 1]
+  /// same wrong pose (metres along a straight street). [0, 1]
   double recovery_confirmed_relative_inlier_ratio = 0.0;
   /// After this many bridged frames in a row the local map is restarted from the current frame
   /// (a keyframe joined to the previous one by a weak bridge edge). >= 1.
