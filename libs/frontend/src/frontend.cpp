@@ -261,9 +261,10 @@ struct Frontend::Impl {
 
     if (confirmed_jump) {
       applyConfirmedJump(*confirmed_jump);
-    } else if (fr.status == TrackingStatus::Recovered) {
+    } else if (fr.status == TrackingStatus::Recovered && motion.count() >= 2) {
       // A recovery beyond what tracking may correct is a jump (lost sweeps): the velocity before
-      // it still holds, so the history moves with the correction instead of absorbing it.
+      // it still holds, so the history moves with the correction instead of absorbing it. (Before
+      // there is a velocity the guess is the last pose, and the correction is the motion itself.)
       const Isometry3d d = T_guess.inverse() * T;
       if (d.translation().norm() > p.tracking.max_correction ||
           rotationAngle(d.linear()) > p.tracking.max_correction_rotation)
