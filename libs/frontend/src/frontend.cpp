@@ -440,9 +440,11 @@ struct Frontend::Impl {
       }
       reason += "; wide-gate recovery: " + why;
     }
-    if (matcher_is_global || near) {
-      // Last resort: the scan matcher against the last keyframe, from the same guess (pre-aligned);
-      // a global matcher (the network) does not depend on it.
+    {
+      // Last resort: the scan matcher against the last keyframe, from the same guess (pre-aligned
+      // for the network): a different target than the local map and the matcher's own wide,
+      // annealed gate. After a jump of several metres it can land beyond the correction bound,
+      // where only the jump confirmation below may take it.
       const Keyframe& kf = keyframes.back();
       MatchResult r;
       {
@@ -484,10 +486,9 @@ struct Frontend::Impl {
           return;
         }
       }
-      // A sudden jump (TrackingParams::recovery_confirm_jumps): the matcher's
-      // registration needs no guess, so its correction is not bounded here; what confirms it is
-      // the next sweep landing on it moved by the constant-velocity step (two sweeps, two
-      // registrations against the keyframe).
+      // A sudden jump (TrackingParams::recovery_confirm_jumps): a registration metres from the
+      // guess is not bounded here, but it is taken only when the next sweep's lands on it moved by
+      // the constant-velocity step (two sweeps, two registrations against the keyframe).
       constexpr double kAny = std::numeric_limits<double>::infinity();
       if (tp.recovery_confirm_jumps &&
           rejectReason(r, T_guess, recovery_q, confirmed_inl, kAny, kAny).empty()) {

@@ -99,8 +99,9 @@ struct TrackingParams {
   double recovery_agreement_translation = 0.0;           ///< [m]
   double recovery_agreement_rotation = 1.0 * kDegToRad;  ///< [rad] (YAML `_deg`)
   /// A sudden jump (sweeps lost without a gap in the time stamps, so the guess is metres off):
-  /// the matcher's registration against the last keyframe does not need the guess, but its inlier
-  /// ratio falls with the overlap. One that fails recovery_relative_inlier_ratio and
+  /// the scan matcher's registration against the last keyframe may land on the jump, but one
+  /// registration metres from the guess looks like a wrong local minimum and its inlier ratio
+  /// falls with the overlap. One that fails only recovery_relative_inlier_ratio and
   /// recovery_max_correction is kept as a candidate; it is taken when the next sweep's
   /// registration lands on it moved by the constant-velocity step (within
   /// recovery_agreement_translation / _rotation), and the candidate sweep, bridged meanwhile, is

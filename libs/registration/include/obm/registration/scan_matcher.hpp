@@ -22,9 +22,8 @@ class ScanMatcher {
 
   /// Short name: "icp", "obmnet", "obmnet+icp".
   virtual std::string name() const = 0;
-  /// True when the registration does not depend on the initial guess (OBMNet's learned
-  /// correspondences); false for local methods (ICP). A global matcher is worth a try when the
-  /// guess is known to be far off (tracking recovery after a jump).
+  /// True when the matcher can register without a good initial guess (OBMNet's learned
+  /// correspondences); false for local methods (ICP).
   virtual bool global() const { return false; }
 
   /// Builds the reusable target structure (down-sampling, KD-tree, normals) with this matcher's
