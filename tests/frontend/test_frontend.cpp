@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
+#include <functional>
 #include <random>
 
 #include "obm/backend/graph_io.hpp"
@@ -250,6 +251,31 @@ TEST(FrontendRobust, EmptyNanAndCorruptedSweepsAreBridgedAndWarned) {
   for (const auto& e : fe.graph().edges3) EXPECT_EQ(e.to, e.from + 1);
 }
 
+/// Indices into the test drive: the first `first` sweeps, then `after` sweeps once `lost` are
+/// skipped.
+std::vector<std::size_t> sweepsWithLoss(std::size_t first, std::size_t lost, std::size_t after) {
+  std::vector<std::size_t> fed;
+  for (std::size_t i = 0; i < first; ++i) fed.push_back(i);
+  for (std::size_t i = first + lost; i < first + lost + after; ++i) fed.push_back(i);
+  return fed;
+}
+
+/// Plays the drive's sweeps `fed` at 4 Hz. The stamps come from each sweep's own index (a gap
+/// shows in them) or, with `hide_gaps`, from its position in `fed` (a jump: nothing shows).
+/// `before(k)` runs before the k-th sweep.
+std::vector<FrameResult> play(Frontend& fe, const std::vector<std::size_t>& fed, bool hide_gaps,
+                              const std::function<void(std::size_t)>& before = {}) {
+  const auto& loop = simLoop();
+  std::vector<FrameResult> res;
+  for (std::size_t k = 0; k < fed.size(); ++k) {
+    if (before) before(k);
+    PointCloud sweep = loop.sweeps[fed[k]];
+    sweep.timestamp = 0.25 * static_cast<double>(hide_gaps ? k : fed[k]);
+    res.push_back(fe.process(sweep));
+  }
+  return res;
+}
+
 TEST(FrontendRobust, SuddenJumpIsRecoveredOrBridgedNeverSilentlyAccepted) {
   // Two sweeps dropped while the time stamps look regular: the constant-velocity guess is 5 m
   // short, far beyond tracking.max_correction.
@@ -257,15 +283,8 @@ TEST(FrontendRobust, SuddenJumpIsRecoveredOrBridgedNeverSilentlyAccepted) {
   FrontendParams p = loopParams();
   p.loop_closure.enabled = false;
   Frontend fe(p);
-  std::vector<std::size_t> fed;
-  for (std::size_t i = 0; i < 12; ++i) fed.push_back(i);
-  for (std::size_t i = 14; i < 30; ++i) fed.push_back(i);
-  std::vector<FrameResult> res;
-  for (std::size_t k = 0; k < fed.size(); ++k) {
-    PointCloud sweep = loop.sweeps[fed[k]];
-    sweep.timestamp = 0.25 * static_cast<double>(k);  // hides the gap
-    res.push_back(fe.process(sweep));
-  }
+  const std::vector<std::size_t> fed = sweepsWithLoss(12, 2, 16);
+  const std::vector<FrameResult> res = play(fe, fed, /*hide_gaps=*/true);
   const auto traj = fe.trajectory();
   const FrameResult& jump = res[12];
   EXPECT_NE(jump.status, TrackingStatus::Tracked);
@@ -294,21 +313,14 @@ TEST(FrontendRobust, RecoveryFailingOnlyTheInlierRatioIsTakenWhenTheMatcherAgree
   // against the last keyframe and taken.
   const auto& loop = simLoop();
   const std::size_t gap_at = 24, gap = 5;
-  std::vector<std::size_t> fed;
-  for (std::size_t i = 0; i < gap_at; ++i) fed.push_back(i);
-  for (std::size_t i = gap_at + gap; i < gap_at + gap + 8; ++i) fed.push_back(i);
+  const std::vector<std::size_t> fed = sweepsWithLoss(gap_at, gap, 8);
   auto run = [&](double agreement_m) {
     FrontendParams p = loopParams();
     p.loop_closure.enabled = false;
     p.tracking.recovery_relative_inlier_ratio = 1.0;
     p.tracking.recovery_agreement_translation = agreement_m;
     Frontend fe(p);
-    std::vector<FrameResult> res;
-    for (std::size_t k = 0; k < fed.size(); ++k) {
-      PointCloud sweep = loop.sweeps[fed[k]];
-      sweep.timestamp = 0.25 * static_cast<double>(fed[k]);  // 4 Hz, the gap visible
-      res.push_back(fe.process(sweep));
-    }
+    const std::vector<FrameResult> res = play(fe, fed, /*hide_gaps=*/false);
     return std::make_pair(res, fe.trajectory());
   };
   const auto [off, traj_off] = run(0.0);
@@ -349,9 +361,7 @@ TEST(FrontendRobust, AJumpRegisteredOnTwoSweepsIsTaken) {
   // take their registered poses and tracking goes on from there.
   const auto& loop = simLoop();
   const std::size_t jump_at = 14, lost = 4;
-  std::vector<std::size_t> fed;
-  for (std::size_t i = 0; i < jump_at; ++i) fed.push_back(i);
-  for (std::size_t i = jump_at + lost; i < jump_at + lost + 10; ++i) fed.push_back(i);
+  const std::vector<std::size_t> fed = sweepsWithLoss(jump_at, lost, 10);
   auto run = [&](bool confirm_jumps) {
     FrontendParams p = loopParams();
     p.loop_closure.enabled = false;
@@ -362,16 +372,11 @@ TEST(FrontendRobust, AJumpRegisteredOnTwoSweepsIsTaken) {
     auto owned = std::make_unique<TruthStartMatcher>(p.matcher.icp, p.matcher.confidence);
     TruthStartMatcher* matcher = owned.get();
     Frontend fe(p, std::move(owned));
-    std::vector<FrameResult> res;
-    for (std::size_t k = 0; k < fed.size(); ++k) {
-      if (!fe.keyframes().empty()) {
-        const std::size_t kf = fe.keyframes().back().frame_index;
-        matcher->T_target_source_true = loop.truth[fed[kf]].inverse() * loop.truth[fed[k]];
-      }
-      PointCloud sweep = loop.sweeps[fed[k]];
-      sweep.timestamp = 0.25 * static_cast<double>(k);  // hides the jump
-      res.push_back(fe.process(sweep));
-    }
+    const std::vector<FrameResult> res = play(fe, fed, /*hide_gaps=*/true, [&](std::size_t k) {
+      if (fe.keyframes().empty()) return;
+      const std::size_t kf = fe.keyframes().back().frame_index;
+      matcher->T_target_source_true = loop.truth[fed[kf]].inverse() * loop.truth[fed[k]];
+    });
     return std::make_tuple(res, fe.trajectory(), fe.stats());
   };
   const std::size_t J = jump_at;  // the first sweep after the jump

@@ -146,7 +146,6 @@ MatcherChoice chooseMatcher(const FrontendParams& params) {
 struct Frontend::Impl {
   FrontendParams p;
   std::unique_ptr<ScanMatcher> matcher;  // loop verification, last-resort recovery
-  bool matcher_is_global = false;  // registers without the guess (OBMNet)
   std::unique_ptr<IcpMatcher> tracker;   // frame → local map
   std::unique_ptr<IcpMatcher> recovery;  // frame → local map, annealed wide gate
   KeyframeSelector selector;
@@ -193,7 +192,6 @@ struct Frontend::Impl {
         rng(params.preprocess.seed),
         optimizer(params.optimizer) {
     p.validate();
-    matcher_is_global = matcher->global();
     tracker = std::make_unique<IcpMatcher>(p.tracking.icp, p.tracking.confidence);
     if (p.tracking.recovery_gate > 0.0) {
       IcpParams r = p.tracking.icp;
@@ -204,7 +202,7 @@ struct Frontend::Impl {
     }
   }
 
-  const char* verifyStage() const { return matcher_is_global ? "obmnet" : "loop_icp"; }
+  const char* verifyStage() const { return matcher->global() ? "obmnet" : "loop_icp"; }
 
   // ---------------------------------------------------------------------------------------
   FrameResult process(const PointCloud& sweep) {
@@ -395,6 +393,12 @@ struct Frontend::Impl {
     const double recovery_q = tp.recovery_min_quality;
     const double recovery_inl = tp.recovery_relative_inlier_ratio * inl_ref;
     const double confirmed_inl = tp.recovery_confirmed_relative_inlier_ratio * inl_ref;
+    // Two poses confirm each other (the second opinion, a jump seen on two sweeps).
+    auto agree = [&tp](const Isometry3d& T_a, const Isometry3d& T_b) {
+      const Isometry3d d = T_a.inverse() * T_b;
+      return d.translation().norm() <= tp.recovery_agreement_translation &&
+             rotationAngle(d.linear()) <= tp.recovery_agreement_rotation;
+    };
     if (recovery) {
       // Hypotheses: the guess, then the guess turned about the axis of the last motion (a car's
       // vertical) by ±k·step — a wrong turn rate is the usual cause of a lost track.
@@ -476,9 +480,7 @@ struct Frontend::Impl {
                       .empty()) {
         // Second opinion (TrackingParams::recovery_agreement_translation): two registrations
         // against different targets (local map, last keyframe) that land on the same pose.
-        const Isometry3d d = near->T_target_source.inverse() * r.T_target_source;
-        if (d.translation().norm() <= tp.recovery_agreement_translation &&
-            rotationAngle(d.linear()) <= tp.recovery_agreement_rotation) {
+        if (agree(near->T_target_source, r.T_target_source)) {
           fr.match = *near;
           fr.status = TrackingStatus::Recovered;
           fr.reason = reason + "; taken: the wide-gate recovery, confirmed by " + matcher->name() +
@@ -496,9 +498,7 @@ struct Frontend::Impl {
             previous_jump->keyframes == keyframes.size()) {
           const Isometry3d T_predicted =
               previous_jump->T_world_sensor * (previous_jump->T_guess.inverse() * T_guess);
-          const Isometry3d d = T_predicted.inverse() * r.T_target_source;
-          if (d.translation().norm() <= tp.recovery_agreement_translation &&
-              rotationAngle(d.linear()) <= tp.recovery_agreement_rotation) {
+          if (agree(T_predicted, r.T_target_source)) {
             const Isometry3d jump = T_guess.inverse() * r.T_target_source;
             fr.match = r;
             fr.status = TrackingStatus::Recovered;
