@@ -1,16 +1,25 @@
 #!/usr/bin/env bash
-# Simulates the LiDAR training data of config/obmnet/train_lidar.yaml with obm-sim: two training
-# drives and one validation drive through procedural cities that the benchmarks never use
-# (kitti_like_urban with seeds 11, 12, 21; the benchmark sequence is seed 1).
-#   scripts/make_lidar_training_data.sh [OUT_DIR=runs/lidar_data] [BUILD_DIR=build]
+# Simulates the LiDAR training data of the obmnet LiDAR configs with obm-sim, in cities the
+# benchmarks never use (the benchmark sequences are seeds 1 and 5):
+#   urban    kitti_like_urban seeds 11, 12 (500 sweeps each, training) and 21 (200, validation):
+#            config/obmnet/train_lidar.yaml
+#   revisits urban_revisits seeds 11, 12 (training) and 21 (validation), whole drives (~1300
+#            sweeps each) that revisit their streets from both directions: the loop pairs of
+#            config/obmnet/train_lidar_pairs.yaml
+#   scripts/make_lidar_training_data.sh [OUT_DIR=runs/lidar_data] [BUILD_DIR=build] [SET=all|urban|revisits]
 set -euo pipefail
 out=${1:-runs/lidar_data}
 bin=${2:-build}/bin/obm-sim
+set_name=${3:-all}
+case "$set_name" in all|urban|revisits) ;; *) echo "unknown set '$set_name' (all, urban, revisits)" >&2; exit 2;; esac
 mkdir -p "$out"
-for spec in 11:500 12:500 21:200; do
-  seed=${spec%%:*}; frames=${spec##*:}
-  dir="$out/urban_s$seed"
+specs=()
+[[ "$set_name" == all || "$set_name" == urban ]] && specs+=(kitti_like_urban:urban:11:500 kitti_like_urban:urban:12:500 kitti_like_urban:urban:21:200)
+[[ "$set_name" == all || "$set_name" == revisits ]] && specs+=(urban_revisits:revisit:11:0 urban_revisits:revisit:12:0 urban_revisits:revisit:21:0)
+for spec in "${specs[@]}"; do
+  IFS=: read -r preset prefix seed frames <<<"$spec"
+  dir="$out/${prefix}_s$seed"
   if [[ -f "$dir/poses.txt" ]]; then echo "[lidar-data] $dir exists"; continue; fi
-  "$bin" -p kitti_like_urban -s "$seed" -n "$frames" -q -o "$dir"
+  "$bin" -p "$preset" -s "$seed" -n "$frames" -q -o "$dir"
 done
 echo "[lidar-data] sequences in $out"

@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <random>
+#include <tuple>
 
 #include "obm/config/config_node.hpp"
 #include "obm/core/cloud_ops.hpp"
@@ -180,6 +181,70 @@ obmnet::ObjectSet loadRgbdFragments(const std::string& dir, const RgbdFragmentOp
     throw IoError((dir.empty() ? std::string(".") : dir) +
                   ": no training fragment with " + std::to_string(keep_points) + " points");
   return set;
+}
+
+std::vector<obmnet::RegistrationPair> rgbdFramePairs(const std::string& dir,
+                                                     const RgbdFragmentOptions& options,
+                                                     const std::vector<std::string>& sequences,
+                                                     int min_gap, int max_gap, int n,
+                                                     std::uint64_t seed) {
+  if (min_gap < 1 || max_gap < min_gap)
+    throw ConfigError("RGB-D frame pairs: need 1 <= min_gap <= max_gap, got " +
+                      std::to_string(min_gap) + ".." + std::to_string(max_gap));
+  std::vector<obmnet::RegistrationPair> pairs;
+  if (sequences.empty() || n <= 0) return pairs;
+  std::mt19937_64 rng(seed);
+  const int per = (n + static_cast<int>(sequences.size()) - 1) / static_cast<int>(sequences.size());
+  for (const auto& entry : sequences) {
+    const auto [layout, rel] = splitLayout(entry, options.layout);
+    const std::string path = resolve(dir, rel);
+    const auto seq = openSequence(path, layout);
+    const std::string name = fs::path(path).filename().string();
+    const int frames = static_cast<int>(seq.size());
+    if (frames < 2) throw FormatError(path, 0, "an RGB-D pair needs at least 2 frames");
+    auto frameCloud = [&](int i) {
+      PointCloud c = seq.cloud(static_cast<std::size_t>(i), options.min_depth, options.max_depth,
+                               options.stride);
+      if (options.voxel > 0.0) c = voxelDownsample(c, options.voxel);
+      c.intensity.clear();
+      c.colors.clear();
+      return c;
+    };
+    // A sequence too short for the gaps (e.g. a few real frames) gives each of its pairs once.
+    std::vector<std::pair<int, int>> all;
+    if (frames - 1 < min_gap)
+      for (int a = 0; a < frames; ++a)
+        for (int b = a + 1; b < frames; ++b) all.emplace_back(a, b);
+    const int count = all.empty() ? per : std::min(per, static_cast<int>(all.size()));
+    for (int k = 0; k < count && static_cast<int>(pairs.size()) < n; ++k) {
+      int i = 0, j = 0;
+      if (!all.empty()) {
+        std::tie(i, j) = all[static_cast<std::size_t>(k)];
+      } else {
+        // The gap first, then the first frame evenly along what the gap leaves.
+        const int gap = std::uniform_int_distribution<int>(min_gap, std::min(max_gap, frames - 1))(rng);
+        const int last = frames - 1 - gap;
+        i = per > 1 ? (last * k) / (per - 1) : 0;
+        j = i + gap;
+      }
+      const auto& fi = seq.frame(static_cast<std::size_t>(i));
+      const auto& fj = seq.frame(static_cast<std::size_t>(j));
+      if (!fi.has_pose || !fj.has_pose)
+        throw FormatError(path, 0,
+                          "frames " + std::to_string(i) + " and " + std::to_string(j) +
+                              " need ground-truth poses to be scored");
+      obmnet::RegistrationPair p;
+      p.source = frameCloud(j);
+      p.target = frameCloud(i);
+      p.source.frame_id = "camera_" + std::to_string(j);
+      p.target.frame_id = "camera_" + std::to_string(i);
+      p.T_target_source = fi.T_world_camera.inverse() * fj.T_world_camera;
+      p.overlap = -1.0;
+      p.name = name + ":" + std::to_string(j) + "->" + std::to_string(i);
+      pairs.push_back(std::move(p));
+    }
+  }
+  return pairs;
 }
 
 }  // namespace obm::apps

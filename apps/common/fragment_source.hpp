@@ -50,4 +50,17 @@ struct RgbdFragmentOptions {
 obmnet::ObjectSet loadRgbdFragments(const std::string& dir, const RgbdFragmentOptions& options,
                                     int keep_points, std::uint64_t seed);
 
+/// Pairs of two *different* depth frames of one sequence (no fragment cut twice): frames i and
+/// j = i + s with s drawn from [min_gap, max_gap] (clamped to the sequence; a sequence shorter
+/// than min_gap + 1 frames gives the pairs of its first and later frames), each back-projected
+/// with the options' stride and depth range and put on the voxel grid, in metres, each in its own
+/// camera frame; T_target_source = T_world_i⁻¹ · T_world_j from the sequence's poses (needed).
+/// `n` pairs spread evenly over `sequences` (entries as in RgbdFragmentOptions) from `seed`;
+/// name "SEQUENCE:j->i". Throws IoError / FormatError naming the folder.
+std::vector<obmnet::RegistrationPair> rgbdFramePairs(const std::string& dir,
+                                                     const RgbdFragmentOptions& options,
+                                                     const std::vector<std::string>& sequences,
+                                                     int min_gap, int max_gap, int n,
+                                                     std::uint64_t seed);
+
 }  // namespace obm::apps

@@ -23,9 +23,25 @@ struct ScanSourceConfig {
   std::vector<std::string> sequences;      ///< training sequences
   std::vector<std::string> val_sequences;  ///< validation sequences (need ground truth)
   int frame_gap = 10;                      ///< pairs (i, i + frame_gap)
+  /// Training: the gap of each pair drawn uniformly from this list (empty = {frame_gap}), e.g.
+  /// {1, 5, 10, 20}: consecutive sweeps up to ~20 m apart.
+  std::vector<int> frame_gaps;
   double voxel = 0.3;                      ///< [m] voxel grid before the random N-point sample
   double min_range = 0.0;                  ///< [m] returns closer than this are dropped (0 = keep)
   double max_range = 0.0;                  ///< [m] returns farther than this are dropped (0 = keep)
+  /// N points per scan as voxel keypoints (obmnet::voxelKeypoints) rather than a random subset.
+  bool voxel_keypoints = false;
+  /// Loop pairs: two sweeps at least `loop_min_separation` sweeps apart whose positions are within
+  /// `loop_max_distance` [m] horizontally (a revisit, in any direction). Finding them needs the
+  /// positions of the sweeps (poses.txt; any odometry or GNSS track would do): they choose which
+  /// sweeps are paired and never enter the loss.
+  double loop_fraction = 0.0;  ///< training: share of loop pairs (0 = none)
+  double loop_max_distance = 10.0;
+  int loop_min_separation = 100;
+  /// Training: the source sweep is turned by a random yaw in ±yaw_augment_deg about the sensor's
+  /// z axis (a made-up heading change, so revisits from any direction are covered; no ground
+  /// truth involved).
+  double yaw_augment_deg = 0.0;
 
   /// Reads the `data:` map (source must be `kitti`); unknown keys are errors naming the file.
   static ScanSourceConfig load(const ConfigNode& node);
@@ -45,10 +61,25 @@ struct ScanSourceConfig {
 obmnet::PairSampler scanPairSampler(const ScanSourceConfig& config, int num_points,
                                     int curriculum_epochs = 0);
 
+/// Which pairs of a sequence: (i, i + gap) or loop pairs (revisits, see ScanSourceConfig).
+struct ScanPairClass {
+  int gap = 10;       ///< frame gap; ignored for loops
+  bool loop = false;  ///< revisit pairs, spread evenly over the yaw difference 0–180°
+  std::string label() const { return loop ? "loop" : "k" + std::to_string(gap); }
+  /// "k10" / "10" → gap 10, "loop" → loops. Throws ConfigError otherwise.
+  static ScanPairClass parse(const std::string& s);
+};
+
 /// `n` fixed validation pairs, evenly spread over the validation sequences, from `seed`. Throws
 /// IoError naming the folder when a validation sequence has no ground truth.
 std::vector<obmnet::RegistrationPair> scanValidationPairs(const ScanSourceConfig& config,
                                                           int num_points, int n,
                                                           std::uint64_t seed);
+/// The same for one pair class (loop pairs: evenly over six 30° bins of yaw difference, then
+/// along the sequences). Throws Error when a sequence holds no pair of the class.
+std::vector<obmnet::RegistrationPair> scanPairs(const ScanSourceConfig& config,
+                                                const std::vector<std::string>& sequences,
+                                                const ScanPairClass& cls, int num_points, int n,
+                                                std::uint64_t seed);
 
 }  // namespace obm::apps

@@ -15,6 +15,7 @@
 #include "obm/core/errors.hpp"
 #include "obm/core/progress.hpp"
 #include "obm/core/timer.hpp"
+#include "obm/eval/statistics.hpp"
 #include "obm/io/point_cloud_io.hpp"
 
 namespace fs = std::filesystem;
@@ -102,8 +103,11 @@ std::vector<MethodScores> runBenchmark(const std::vector<obmnet::RegistrationPai
       Timer t;
       Isometry3d T = Isometry3d::Identity();
       bool failed = false;
+      std::vector<std::pair<std::string, double>> conf;
       try {
-        T = m.fn(p.source, p.target);
+        MethodResult r = m.fn(p.source, p.target);
+        T = r.T_target_source;
+        conf = std::move(r.scores);
       } catch (const std::exception&) {
         ++s.failures;
         failed = true;
@@ -112,6 +116,7 @@ std::vector<MethodScores> runBenchmark(const std::vector<obmnet::RegistrationPai
       s.per_pair.push_back(acc.add(T, p.T_target_source, ms));
       s.per_pair_ms.push_back(ms);
       s.per_pair_failed.push_back(failed);
+      s.per_pair_scores.push_back(std::move(conf));
       bar.tick();
     }
     s.summary = acc.summary();
@@ -122,6 +127,55 @@ std::vector<MethodScores> runBenchmark(const std::vector<obmnet::RegistrationPai
     out.push_back(s);
   }
   return out;
+}
+
+std::vector<ConfidenceRating> rateConfidences(const std::vector<MethodScores>& scores,
+                                              const eval::RecallThresholds& recall) {
+  std::vector<ConfidenceRating> out;
+  for (const auto& s : scores) {
+    std::vector<std::string> names;
+    for (const auto& pp : s.per_pair_scores)
+      for (const auto& [name, v] : pp)
+        if (std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
+    for (const auto& name : names) {
+      std::vector<double> v;
+      std::vector<bool> ok;
+      for (std::size_t i = 0; i < s.per_pair.size(); ++i) {
+        // A pair where the method threw or gave no such score counts as the lowest score.
+        double x = -1e300;
+        for (const auto& [n, val] : s.per_pair_scores[i])
+          if (n == name && std::isfinite(val)) x = val;
+        v.push_back(x);
+        ok.push_back(!s.per_pair_failed[i] &&
+                     recall.accepts(s.per_pair[i].rre_deg, s.per_pair[i].rte));
+      }
+      ConfidenceRating r;
+      r.method = s.name;
+      r.score = name;
+      r.auroc = eval::auroc(v, ok);
+      r.correct = static_cast<std::size_t>(std::count(ok.begin(), ok.end(), true));
+      r.wrong = ok.size() - r.correct;
+      out.push_back(r);
+    }
+  }
+  return out;
+}
+
+std::string confidenceTable(const std::vector<ConfidenceRating>& ratings) {
+  std::ostringstream os;
+  os << "| method | confidence score | AUROC (correct vs wrong) | correct | wrong |\n"
+     << "|---|---|---:|---:|---:|\n";
+  char buf[256];
+  for (const auto& r : ratings) {
+    if (std::isnan(r.auroc))
+      std::snprintf(buf, sizeof(buf), "| %s | %s | – | %zu | %zu |\n", r.method.c_str(),
+                    r.score.c_str(), r.correct, r.wrong);
+    else
+      std::snprintf(buf, sizeof(buf), "| %s | %s | %.3f | %zu | %zu |\n", r.method.c_str(),
+                    r.score.c_str(), r.auroc, r.correct, r.wrong);
+    os << buf;
+  }
+  return os.str();
 }
 
 std::string markdownTable(const std::vector<MethodScores>& scores, const std::string& title) {
@@ -143,7 +197,8 @@ std::string markdownTable(const std::vector<MethodScores>& scores, const std::st
 }
 
 std::string jsonReport(std::size_t n_pairs, const std::vector<MethodScores>& scores,
-                       const eval::RecallThresholds& recall, const std::string& info) {
+                       const eval::RecallThresholds& recall, const std::string& info,
+                       const std::vector<ConfidenceRating>& ratings) {
   nlohmann::json j;
   j["pairs"] = n_pairs;
   j["recall_thresholds"] = {{"max_rre_deg", recall.max_rre_deg}, {"max_rte", recall.max_rte}};
@@ -158,6 +213,14 @@ std::string jsonReport(std::size_t n_pairs, const std::vector<MethodScores>& sco
         {"mean_ms", r.mean_ms}, {"failures", s.failures}};
   }
   j["methods"] = methods;
+  nlohmann::json conf = nlohmann::json::array();
+  for (const auto& r : ratings)
+    conf.push_back({{"method", r.method},
+                    {"score", r.score},
+                    {"auroc", std::isnan(r.auroc) ? nlohmann::json() : nlohmann::json(r.auroc)},
+                    {"correct", r.correct},
+                    {"wrong", r.wrong}});
+  j["confidence_auroc"] = conf;
   return j.dump(2) + "\n";
 }
 
@@ -166,20 +229,40 @@ std::string perPairCsv(const std::vector<obmnet::RegistrationPair>& pairs,
                        const eval::RecallThresholds& recall) {
   std::ostringstream os;
   os << "pair,name,overlap";
-  for (const auto& s : scores)
+  // Score columns: every score name a method gave on any pair.
+  std::vector<std::vector<std::string>> score_names(scores.size());
+  for (std::size_t m = 0; m < scores.size(); ++m)
+    for (const auto& pp : scores[m].per_pair_scores)
+      for (const auto& kv : pp)
+        if (std::find(score_names[m].begin(), score_names[m].end(), kv.first) ==
+            score_names[m].end())
+          score_names[m].push_back(kv.first);
+  for (std::size_t m = 0; m < scores.size(); ++m) {
+    const auto& s = scores[m];
     os << ',' << s.name << "_rre_deg," << s.name << "_rte," << s.name << "_ms," << s.name
        << "_ok";
+    for (const auto& n : score_names[m]) os << ',' << s.name << '_' << n;
+  }
   os << '\n';
   char buf[160];
   for (std::size_t i = 0; i < pairs.size(); ++i) {
     std::snprintf(buf, sizeof(buf), "%zu,%s,%.4f", i, pairs[i].name.c_str(), pairs[i].overlap);
     os << buf;
-    for (const auto& s : scores) {
+    for (std::size_t m = 0; m < scores.size(); ++m) {
+      const auto& s = scores[m];
       const auto& e = s.per_pair.at(i);
       const bool ok = !s.per_pair_failed.at(i) && recall.accepts(e.rre_deg, e.rte);
       std::snprintf(buf, sizeof(buf), ",%.6g,%.6g,%.2f,%d", e.rre_deg, e.rte, s.per_pair_ms.at(i),
                     ok ? 1 : 0);
       os << buf;
+      for (const auto& n : score_names[m]) {
+        os << ',';
+        for (const auto& kv : s.per_pair_scores.at(i))
+          if (kv.first == n) {
+            std::snprintf(buf, sizeof(buf), "%.6g", kv.second);
+            os << buf;
+          }
+      }
     }
     os << '\n';
   }

@@ -28,7 +28,24 @@ struct MethodScores {
   std::vector<eval::PairErrors> per_pair;
   std::vector<double> per_pair_ms;
   std::vector<bool> per_pair_failed;
+  /// Per pair, the method's confidence scores (MethodResult::scores), in the pairs' order.
+  std::vector<std::vector<std::pair<std::string, double>>> per_pair_scores;
 };
+
+/// How well one confidence score of one method separates its correct registrations (within the
+/// recall thresholds) from its wrong ones.
+struct ConfidenceRating {
+  std::string method, score;
+  double auroc = 0.0;  ///< NaN when all the method's registrations are correct, or none is
+  std::size_t correct = 0, wrong = 0;
+};
+
+/// Every (method, score) pair of the results, rated by AUROC.
+std::vector<ConfidenceRating> rateConfidences(const std::vector<MethodScores>& scores,
+                                              const eval::RecallThresholds& recall);
+
+/// The ratings as a Markdown table.
+std::string confidenceTable(const std::vector<ConfidenceRating>& ratings);
 
 /// Runs every method on every pair (with a progress bar) and scores it.
 std::vector<MethodScores> runBenchmark(const std::vector<obmnet::RegistrationPair>& pairs,
@@ -41,7 +58,8 @@ std::string markdownTable(const std::vector<MethodScores>& scores, const std::st
 /// {"pairs": N, "methods": {"name": {"mae_r": …, "mae_t": …, "mie_r": …, "mie_t": …, "recall": …,
 /// "median_ms": …}, …}} plus the recall thresholds and free-form `info`.
 std::string jsonReport(std::size_t n_pairs, const std::vector<MethodScores>& scores,
-                       const eval::RecallThresholds& recall, const std::string& info);
+                       const eval::RecallThresholds& recall, const std::string& info,
+                       const std::vector<ConfidenceRating>& ratings = {});
 
 /// One row per pair: `pair,name,overlap` then, per method, `<m>_rre_deg,<m>_rte,<m>_ms,<m>_ok`
 /// (ok = within the recall thresholds; a method that threw has ok 0 and its identity errors).

@@ -2,6 +2,7 @@
 // peers, on generated object pairs or on a folder of pairs. See docs/obm-bench.md.
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <numeric>
 #include <iostream>
 #include <sstream>
 #include <string>
@@ -39,7 +40,10 @@ bench::Method obmnetMethod(const std::string& name, const std::string& model, in
   auto reg = std::make_shared<ObmNetRegistrar>(
       ObmNetRegistrar::Options{model, num_points, threads, 0, denoise});
   return {name, [reg](const PointCloud& s, const PointCloud& t) {
-            return reg->align(s, t).T_target_source;
+            const RegistrationResult r = reg->align(s, t);
+            bench::MethodResult out(r.T_target_source);
+            out.scores = {{"keypoint_fitness", r.fitness}, {"overlap", r.overlap}};
+            return out;
           }};
 }
 
@@ -71,10 +75,20 @@ std::shared_ptr<IcpMatcher> objectIcpMatcher(double unit, double polish) {
   return std::make_shared<IcpMatcher>(objectIcpParams(unit, polish), objectConfidenceParams(unit));
 }
 
+/// A matcher's pose with its confidence scores: ICP's own fitness and inlier ratio, and for the
+/// OBMNet matchers the bias-weighted confidence (MatchResult::network_confidence).
+bench::MethodResult matchResult(const MatchResult& r) {
+  bench::MethodResult out(r.T_target_source);
+  out.scores = {{"fitness", r.fitness}, {"inlier_ratio", r.inlier_ratio}};
+  if (r.alpha != 1.0 || r.network_confidence >= 0.0)
+    out.scores.push_back({"obm_confidence", std::max(0.0, r.network_confidence)});
+  return out;
+}
+
 /// A bench row that runs `matcher` from the identity.
 bench::Method matcherMethod(std::string name, std::shared_ptr<const ScanMatcher> matcher) {
   return {std::move(name), [matcher](const PointCloud& s, const PointCloud& t) {
-            return matcher->match(s, t, Isometry3d::Identity()).T_target_source;
+            return matchResult(matcher->match(s, t, Isometry3d::Identity()));
           }};
 }
 
@@ -116,7 +130,43 @@ bench::Method obmnetIcpOrIcpMethod(std::shared_ptr<const ScanMatcher> net,
             };
             const bool take_b = paired(b) && (!paired(a) ||
                                               b.num_correspondences > a.num_correspondences);
-            return (take_b ? b : a).T_target_source;
+            return matchResult(take_b ? b : a);
+          }};
+}
+
+/// The Overlap Bias Matching Module as a plug-in (`obmm+icp`): ICP from the identity whose
+/// residuals are weighted by the module's ω (ObmmIcpMatcher); the same ICP as the `icp` row.
+std::shared_ptr<ObmmIcpMatcher> obmmIcpMatcher(const std::string& model, int threads,
+                                               int num_points, double unit, double polish) {
+  ObmNetMatcherParams p;
+  p.model_path = model;
+  p.num_points = num_points;
+  p.threads = threads;
+  p.pre_align = false;
+  return std::make_shared<ObmmIcpMatcher>(p, objectIcpParams(unit, polish),
+                                          objectConfidenceParams(unit));
+}
+
+/// `obmm+<peer>`: the peer (FGR or RANSAC on FPFH) on the points the module predicts in the
+/// overlap only — the fraction `keep` of each cloud's network points with the largest ω.
+bench::Method overlapRestricted(std::string name, std::shared_ptr<const OverlapPredictor> pred,
+                                bench::Method peer, double keep) {
+  return {std::move(name), [pred, peer, keep](const PointCloud& s, const PointCloud& t) {
+            const OverlapPrediction o = pred->predict(s, t);
+            auto top = [keep](const std::vector<Vector3f>& pts, const std::vector<double>& w) {
+              std::vector<std::size_t> order(pts.size());
+              std::iota(order.begin(), order.end(), std::size_t{0});
+              const auto n = std::max<std::size_t>(
+                  8, static_cast<std::size_t>(std::lround(keep * static_cast<double>(pts.size()))));
+              std::stable_sort(order.begin(), order.end(),
+                               [&](std::size_t a, std::size_t b) { return w[a] > w[b]; });
+              PointCloud c;
+              for (std::size_t i = 0; i < std::min(n, order.size()); ++i)
+                c.points.push_back(pts[order[i]]);
+              return c;
+            };
+            return peer.fn(top(o.source_points, o.source_weights),
+                           top(o.target_points, o.target_weights));
           }};
 }
 
@@ -150,6 +200,7 @@ int main(int argc, char** argv) {
   double recall_deg = 1.0, recall_trans = 0.1, jitter_sigma = -1.0, unit = 0.0, polish = -1.0,
          overlap_keep = -1.0;
   std::vector<std::string> sequences;
+  std::string pair_class, frame_gaps;
   bool quiet = false;
   app.add_option("--pairs", pairs_dir, "score the pairs in this folder instead of generated ones");
   app.add_option("--json", json_out, "write the results as JSON");
@@ -162,7 +213,10 @@ int main(int argc, char** argv) {
   app.add_option("--config", config_path,
                  "YAML with a `data:` map for the object set (default: the training config)");
   app.add_option("--protocol", protocol,
-                 "clean | jitter | outliers | partial | partial_noise | indoor | icl | kitti (indoor, "
+                 "clean | jitter | outliers | partial | partial_noise | resampled | indoor | icl | "
+                 "rgbd_frames | kitti (resampled: independent samplings of each object, no shared "
+                 "point; rgbd_frames: two different depth frames, --config "
+                 "config/obmnet/train_indoor.yaml, --group val|unseen; indoor, "
                  "icl: 2048-point fragments, e.g. with --config config/obmnet/train_indoor.yaml; "
                  "kitti: RECIPE.md's (i, i+10) LiDAR pairs of --sequence folders, see "
                  "config/obmnet/train_lidar.yaml)")
@@ -182,6 +236,13 @@ int main(int argc, char** argv) {
   app.add_option("--sequence", sequences,
                  "kitti protocol: a KITTI odometry folder with poses.txt (repeatable); default: the "
                  "config's val_sequences with --group val");
+  app.add_option("--pair-class", pair_class,
+                 "kitti protocol: k1, k5, k10, k20 (pairs (i, i+k)) or loop (revisits of a place "
+                 "within the config's loop_max_distance, spread over yaw differences 0-180 deg); "
+                 "default: the config's frame_gap");
+  app.add_option("--frame-gaps", frame_gaps,
+                 "rgbd_frames protocol: MIN:MAX frames between the two depth frames of a pair "
+                 "(default 5:30)");
   app.add_option("--unit", unit,
                  "length [cloud units] that scales the ICP and Open3D peers' distances, which are "
                  "set for unit-sphere objects (default: 1; 20 for the kitti protocol, in metres)");
@@ -215,8 +276,9 @@ int main(int argc, char** argv) {
   try {
     setLogLevel(parseLogLevel(log_level));
     if (model.empty())
-      model = apps::findShareFile(protocol == "kitti" ? "models/obmnet_lidar.pt"
-                                                      : "models/obmnet_objects.pt");
+      model = apps::findShareFile(protocol == "kitti"         ? "models/obmnet_lidar.pt"
+                                  : protocol == "rgbd_frames" ? "models/obmnet_indoor.pt"
+                                                              : "models/obmnet_objects.pt");
     std::vector<obmnet::RegistrationPair> pairs;
     std::string info;
     bool shared_samples = false;  // set where pairs are generated by obmnet::makePair
@@ -224,6 +286,29 @@ int main(int argc, char** argv) {
     if (!pairs_dir.empty()) {
       pairs = bench::readPairFolder(pairs_dir);
       info = "pairs from " + pairs_dir;
+    } else if (protocol == "rgbd_frames") {
+      // Two different depth frames of an RGB-D sequence, each in its own camera frame, in metres.
+      if (config_path.empty()) config_path = apps::findConfigFile("obmnet/train_indoor.yaml");
+      const auto root = ConfigNode::loadFile(config_path);
+      const auto data = root.child("data");
+      std::string dir;
+      data.get("dir", dir);
+      const auto opts = apps::RgbdFragmentOptions::load(data.child("rgbd"));
+      if (group != "val" && group != "unseen")
+        throw ConfigError("--protocol rgbd_frames: --group must be val or unseen, not '" + group + "'");
+      const auto& seqs = group == "val" ? opts.val_sequences : opts.test_sequences;
+      int lo = 5, hi = 30;
+      if (!frame_gaps.empty() &&
+          std::sscanf(frame_gaps.c_str(), "%d:%d", &lo, &hi) != 2)
+        throw ConfigError("--frame-gaps: expected MIN:MAX, got '" + frame_gaps + "'");
+      pairs = apps::rgbdFramePairs(dir, opts, seqs, lo, hi, n_pairs, seed);
+      if (!app.count("--recall-deg")) recall_deg = 5.0;
+      if (!app.count("--recall-trans")) recall_trans = 0.1;
+      std::ostringstream os;
+      os << "protocol rgbd_frames (frames i, i+s, s in [" << lo << ", " << hi << "]), "
+         << pairs.size() << " pairs of the " << group << " sequences of " << config_path
+         << ", voxel " << opts.voxel << " m, seed " << seed;
+      info = os.str();
     } else if (protocol == "kitti") {
       // RECIPE.md's KITTI protocol: pairs (i, i + frame_gap) of sweeps, each voxelised and sampled
       // to the config's points, scored against the sequences' ground truth.
@@ -238,7 +323,9 @@ int main(int argc, char** argv) {
       }
       int scan_points = 1024;
       root.child("train").child("pairs").get("num_points", scan_points);
-      pairs = apps::scanValidationPairs(scans, scan_points, n_pairs, seed);
+      const auto cls = pair_class.empty() ? apps::ScanPairClass{scans.frame_gap, false}
+                                          : apps::ScanPairClass::parse(pair_class);
+      pairs = apps::scanPairs(scans, scans.val_sequences, cls, scan_points, n_pairs, seed);
       if (num_points < 0) num_points = scan_points;
       if (unit <= 0.0) unit = 20.0;
       if (!app.count("--recall-deg")) recall_deg = 5.0;  // RIENet's KITTI recall: 5° and 2 m
@@ -246,20 +333,29 @@ int main(int argc, char** argv) {
       std::string names;
       for (const auto& q : scans.val_sequences) names += (names.empty() ? "" : ", ") + q;
       std::ostringstream os;
-      os << "protocol kitti (i, i+" << scans.frame_gap << "), " << pairs.size() << " pairs of "
+      os << "protocol kitti "
+         << (cls.loop ? std::string("loop pairs (revisits)")
+                      : "(i, i+" + std::to_string(cls.gap) + ")")
+         << ", " << pairs.size() << " pairs of "
          << names << ", " << scan_points << " points per sweep after a " << scans.voxel
          << " m voxel grid, seed " << seed;
       info = os.str();
     } else {
       if (config_path.empty()) config_path = apps::findConfigFile("obmnet/train_objects.yaml");
       const auto root = ConfigNode::loadFile(config_path);
-      auto set = apps::loadObjectSet(apps::ObjectSourceConfig::load(root.child("data")));
+      auto proto = obmnet::PairProtocol::preset(protocol);
+      auto source_cfg = apps::ObjectSourceConfig::load(root.child("data"));
+      // Independent samplings draw source and target from disjoint halves of every surface
+      // sample of the object, so the whole sample is kept.
+      if (proto.resample && source_cfg.source != "modelnet40" && source_cfg.source != "rgbd")
+        source_cfg.objects.keep_points = source_cfg.objects.surface_points;
+      auto set = apps::loadObjectSet(source_cfg);
       if (group != "seen" && group != "val" && group != "unseen")
         throw ConfigError("--group must be seen, val or unseen, not '" + group + "'");
       const auto& objects = group == "seen" ? set.train : group == "val" ? set.val : set.test;
       if (objects.empty()) throw Error("no objects in the " + group + " group");
-      shared_samples = true;
-      auto proto = obmnet::PairProtocol::preset(protocol);
+      // The point-to-point polish needs shared samples; the resampled protocol has none.
+      shared_samples = !proto.resample;
       if (jitter_sigma >= 0.0) {
         proto.jitter_sigma = jitter_sigma;
         proto.jitter_clip = 5.0 * jitter_sigma;
@@ -323,7 +419,25 @@ int main(int argc, char** argv) {
       // listed by default for the kitti protocol and on request (--methods) elsewhere.
       if (protocol == "kitti" || !methods_arg.empty())
         methods.push_back(obmnetIcpOrIcpMethod(net_icp, icp));
-      for (auto& m : bench::open3dMethods(scaledOpen3dParams(unit))) methods.push_back(std::move(m));
+      auto o3d = bench::open3dMethods(scaledOpen3dParams(unit));
+      for (const auto& m : o3d) methods.push_back(m);
+      // The module as a plug-in of the methods users have (the paper's Table 4); listed on
+      // request (--methods), as they cost a network pass (two for the feature peers).
+      if (!methods_arg.empty()) {
+        methods.push_back(
+            matcherMethod("obmm+icp", obmmIcpMatcher(model, threads, num_points, unit, polish)));
+        ObmNetMatcherParams pp;
+        pp.model_path = model;
+        pp.num_points = num_points;
+        pp.threads = threads;
+        const auto pred = std::make_shared<const OverlapPredictor>(pp);
+        const double keep = overlap_keep > 0.0 ? overlap_keep : 0.5;
+        for (const auto& m : o3d) {
+          if (m.name == "o3d_fgr") methods.push_back(overlapRestricted("obmm+fgr", pred, m, keep));
+          if (m.name == "o3d_ransac")
+            methods.push_back(overlapRestricted("obmm+ransac", pred, m, keep));
+        }
+      }
     }
     if (!methods_arg.empty()) {
       const auto keep = splitList(methods_arg);
@@ -341,11 +455,16 @@ int main(int argc, char** argv) {
     const auto scores = bench::runBenchmark(pairs, methods, recall, !quiet);
     std::ostringstream title;
     title << info << "; recall: RRE < " << recall_deg << "° and RTE < " << recall_trans;
-    const std::string md = bench::markdownTable(scores, title.str());
+    const auto ratings = bench::rateConfidences(scores, recall);
+    std::string md = bench::markdownTable(scores, title.str());
+    if (!ratings.empty())
+      md += "\nConfidence scores as detectors of a correct registration (AUROC; 1 = perfect, "
+            "0.5 = chance):\n\n" +
+            bench::confidenceTable(ratings);
     std::cout << md;
     if (!md_out.empty()) writeTextAtomically(md_out, md);
     if (!json_out.empty())
-      writeTextAtomically(json_out, bench::jsonReport(pairs.size(), scores, recall, info));
+      writeTextAtomically(json_out, bench::jsonReport(pairs.size(), scores, recall, info, ratings));
     if (!per_pair_out.empty())
       writeTextAtomically(per_pair_out, bench::perPairCsv(pairs, scores, recall));
     return 0;

@@ -5,6 +5,7 @@
 /// when Open3D is found.
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "obm/core/point_cloud.hpp"
@@ -12,7 +13,17 @@
 
 namespace obm::bench {
 
-using RegisterFn = std::function<Isometry3d(const PointCloud& source, const PointCloud& target)>;
+/// What a method returns: its pose and, optionally, named confidence scores of the pair (higher =
+/// more likely correct) that obm-bench rates by AUROC against the pairs' correctness.
+struct MethodResult {
+  Isometry3d T_target_source = Isometry3d::Identity();
+  std::vector<std::pair<std::string, double>> scores;
+  MethodResult() = default;
+  MethodResult(const Isometry3d& T) : T_target_source(T) {}  // NOLINT: a bare pose converts
+};
+
+using RegisterFn =
+    std::function<MethodResult(const PointCloud& source, const PointCloud& target)>;
 
 struct Method {
   std::string name;

@@ -90,8 +90,8 @@ int main(int argc, char** argv) {
       const int n_points = cfg.protocol.num_points;
       auto sampler = obm::apps::scanPairSampler(scans, n_points, cfg.curriculum_epochs);
       auto val = obm::apps::scanValidationPairs(scans, n_points, cfg.val_pairs, cfg.seed);
-      std::fprintf(stderr, "[obm-train] scans: %zu validation pairs (i, i+%d), %d points each\n",
-                   val.size(), scans.frame_gap, n_points);
+      std::fprintf(stderr, "[obm-train] scans: %zu validation pairs, %d points each\n", val.size(),
+                   n_points);
       trainer_ptr =
           std::make_unique<obm::obmnet::Trainer>(cfg, std::move(sampler), std::move(val), out_dir);
     } else {

@@ -137,3 +137,60 @@ TEST(ScanSource, ErrorsNameTheFolderOrTheKey) {
     EXPECT_NE(std::string(e.what()).find("scan.yaml: frame_gapp"), std::string::npos) << e.what();
   }
 }
+
+TEST(ScanSource, PairClassesParseAndNameTheirGap) {
+  EXPECT_EQ(apps::ScanPairClass::parse("k5").gap, 5);
+  EXPECT_EQ(apps::ScanPairClass::parse("20").gap, 20);
+  EXPECT_TRUE(apps::ScanPairClass::parse("loop").loop);
+  EXPECT_EQ(apps::ScanPairClass::parse("loop").label(), "loop");
+  EXPECT_EQ(apps::ScanPairClass::parse("k10").label(), "k10");
+  for (const char* bad : {"k", "k0", "x5", "5x", "loopy", ""})
+    EXPECT_THROW(apps::ScanPairClass::parse(bad), ConfigError) << bad;
+}
+
+TEST(ScanSource, LoopPairsAreRevisitsWithTheirYaw) {
+  OBM_REQUIRE_SHARED_DATA("kitti/hdl64_sample/000005.bin");
+  const std::string dir = test::scratchDir("scan_source_loops");
+  const std::string seq = makeSequence(dir, "loop", false);
+  // Camera poses (x right, y down, z forward): 1 m forward per sweep for sweeps 0–4, then sweep 5
+  // back at sweep 0's place, turned by 180° about the vertical (camera y).
+  {
+    std::ofstream poses(seq + "/poses.txt");
+    for (int i = 0; i < 5; ++i) poses << "1 0 0 0 0 1 0 0 0 0 1 " << i << "\n";
+    poses << "-1 0 0 0 0 1 0 0 0 0 -1 0\n";
+  }
+  auto cfg = apps::ScanSourceConfig::load(ConfigNode::fromString(
+      "source: kitti\ndir: " + dir +
+          "\nsequences: [loop]\nval_sequences: [loop]\nframe_gap: 2\nvoxel: 0.3\nmin_range: 2.0\n"
+          "max_range: 40.0\nloop_max_distance: 2.0\nloop_min_separation: 3\nloop_fraction: 1.0\n",
+      "scan.yaml"));
+  // Revisits ≥ 3 sweeps apart within 2 m: (0, 5), (1, 5), (2, 5); none of (0, 3), (0, 4), (1, 4).
+  const auto pairs = apps::scanPairs(cfg, {"loop"}, apps::ScanPairClass::parse("loop"), 256, 10, 1);
+  ASSERT_EQ(pairs.size(), 3u);
+  const io::KittiSequence s(seq);
+  const auto& gt = s.groundTruthLidar();
+  for (const auto& p : pairs) {
+    EXPECT_NE(p.name.find("(loop, yaw 180°)"), std::string::npos) << p.name;
+    EXPECT_EQ(p.name.rfind("loop:5->", 0), 0u) << p.name;
+    const std::size_t i = std::stoul(p.name.substr(8));
+    EXPECT_LE(i, 2u);
+    EXPECT_LT((p.T_target_source.matrix() - (gt[i].inverse() * gt[5]).matrix()).norm(), 1e-9);
+  }
+  // The training sampler draws only loops at loop_fraction 1, either sweep as the source, and
+  // turns the source by the yaw augmentation (recorded in the pose it reports).
+  cfg.yaw_augment_deg = 30.0;
+  auto sampler = apps::scanPairSampler(cfg, 128);
+  std::mt19937_64 rng(4);
+  for (int n = 0; n < 6; ++n) {
+    const auto p = sampler(rng, 1);
+    const bool forward = p.name.rfind("loop:5->", 0) == 0;
+    const bool backward = p.name.find("->5") != std::string::npos;
+    EXPECT_TRUE(forward || backward) << p.name;
+  }
+  // A sequence with no revisit cannot train loops.
+  auto none = cfg;
+  none.loop_min_separation = 5;
+  EXPECT_NO_THROW(apps::scanPairSampler(none, 128));  // (0, 5) is still a revisit
+  none.loop_min_separation = 6;
+  EXPECT_THROW(apps::scanPairSampler(none, 128), ConfigError);
+}

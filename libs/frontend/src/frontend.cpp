@@ -29,7 +29,7 @@ constexpr const char* kLog = "frontend";
 constexpr std::size_t kMapDelayFrames = 3;
 
 bool isObmNetType(const std::string& type) {
-  return type == "obmnet" || type == "obmnet+icp";
+  return type == "obmnet" || type == "obmnet+icp" || type == "obmm+icp";
 }
 
 /// Ω_edge = (Ω⁻¹ + Σ_floor)⁻¹ = Ω (I + Σ_floor Ω)⁻¹ (valid for a singular Ω), symmetrised, with

@@ -11,7 +11,7 @@ ObmNetConfig ObmNetConfig::load(const ConfigNode& node) {
   ObmNetConfig c;
   node.checkKeys({"emb_dims", "dim", "k1", "k2", "n_keypoints", "n_samples", "n_iters", "nn_margin",
                   "loss_margin", "beta", "tau_min", "use_overlap_sampling", "use_bias_prediction",
-                  "use_nmm", "nmm_score_grad", "seed"});
+                  "use_nmm", "nmm_score_grad", "planar", "voxel_keypoints", "neighbor_loss_nearest", "seed"});
   node.get("emb_dims", c.emb_dims);
   node.get("dim", c.dim);
   node.get("k1", c.k1);
@@ -27,6 +27,9 @@ ObmNetConfig ObmNetConfig::load(const ConfigNode& node) {
   node.get("use_bias_prediction", c.use_bias_prediction);
   node.get("use_nmm", c.use_nmm);
   node.get("nmm_score_grad", c.nmm_score_grad);
+  node.get("planar", c.planar);
+  node.get("voxel_keypoints", c.voxel_keypoints);
+  node.get("neighbor_loss_nearest", c.neighbor_loss_nearest);
   node.get("seed", c.seed);
   c.validate(node.where());
   return c;
@@ -71,6 +74,12 @@ std::string ObmNetConfig::toYaml() const {
   out << YAML::Key << "use_bias_prediction" << YAML::Value << use_bias_prediction;
   out << YAML::Key << "use_nmm" << YAML::Value << use_nmm;
   out << YAML::Key << "nmm_score_grad" << YAML::Value << nmm_score_grad;
+  // Written only when set, so that models trained before these keys existed keep their
+  // embedded text byte for byte.
+  if (planar) out << YAML::Key << "planar" << YAML::Value << planar;
+  if (voxel_keypoints) out << YAML::Key << "voxel_keypoints" << YAML::Value << voxel_keypoints;
+  if (neighbor_loss_nearest)
+    out << YAML::Key << "neighbor_loss_nearest" << YAML::Value << neighbor_loss_nearest;
   out << YAML::Key << "seed" << YAML::Value << seed;
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";

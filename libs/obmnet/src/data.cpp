@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
+#include <unordered_map>
+#include <unordered_set>
 
 #include "obm/config/config_node.hpp"
 #include "obm/core/cloud_ops.hpp"
@@ -67,6 +70,13 @@ PairProtocol PairProtocol::preset(const std::string& name) {
     p.partial_keep = 1536;
     return p;
   }
+  if (name == "resampled") {
+    p.resample = true;
+    p.partial_keep = 768;
+    p.jitter_sigma = 0.005;
+    p.jitter_clip = 0.025;
+    return p;
+  }
   if (name == "icl") {
     p.num_points = 2048;
     p.partial_keep = 1536;
@@ -74,11 +84,12 @@ PairProtocol PairProtocol::preset(const std::string& name) {
     return p;
   }
   throw ConfigError("unknown pair protocol '" + name +
-                    "' (known: clean, jitter, outliers, partial, partial_noise, indoor, icl)");
+                    "' (known: clean, jitter, outliers, partial, partial_noise, indoor, icl, "
+                    "resampled)");
 }
 
 PairProtocol PairProtocol::load(const ConfigNode& node) {
-  node.checkKeys({"preset", "num_points", "max_angle_deg", "axis_angle", "max_translation",
+  node.checkKeys({"preset", "num_points", "resample", "max_angle_deg", "axis_angle", "max_translation",
                   "partial_keep", "partial_far", "jitter_sigma", "jitter_clip", "jitter_uniform",
                   "outliers"});
   PairProtocol p;
@@ -90,6 +101,7 @@ PairProtocol PairProtocol::load(const ConfigNode& node) {
     }
   }
   node.get("num_points", p.num_points);
+  node.get("resample", p.resample);
   node.get("max_angle_deg", p.max_angle_deg);
   node.get("axis_angle", p.axis_angle);
   node.get("max_translation", p.max_translation);
@@ -110,9 +122,12 @@ PairProtocol PairProtocol::load(const ConfigNode& node) {
 
 namespace {
 
-/// Indices of the `keep` points nearest to a random far point (PRNet/RIENet partial crop).
+/// Indices of the `keep` points nearest to a random far point (PRNet/RIENet partial crop). With
+/// `region`, also the crop's ball: its centre (the far point) and the distance of the last kept
+/// point, so that other samplings of the same surface can be tested against the same region.
 std::vector<std::size_t> cropNearFarPoint(const PointCloud& c, int keep, double far,
-                                          std::mt19937_64& rng) {
+                                          std::mt19937_64& rng,
+                                          std::pair<Eigen::Vector3f, float>* region = nullptr) {
   std::normal_distribution<double> G(0.0, 1.0);
   Eigen::Vector3d dir(G(rng), G(rng), G(rng));
   if (dir.norm() < 1e-12) dir = Eigen::Vector3d::UnitX();
@@ -125,6 +140,10 @@ std::vector<std::size_t> cropNearFarPoint(const PointCloud& c, int keep, double 
   std::partial_sort(idx.begin(), idx.begin() + static_cast<std::ptrdiff_t>(std::min(k, idx.size())),
                     idx.end(), [&](std::size_t a, std::size_t b) { return d[a] < d[b]; });
   idx.resize(std::min(k, idx.size()));
+  if (region) {
+    region->first = anchor;
+    region->second = idx.empty() ? 0.0f : std::sqrt(d[idx.back()]);
+  }
   std::sort(idx.begin(), idx.end());
   return idx;
 }
@@ -147,6 +166,60 @@ void addOutliers(PointCloud& c, int n, std::mt19937_64& rng) {
   c.colors.clear();
 }
 
+/// The `resample` protocol: two disjoint random halves of the object's i.i.d. surface samples,
+/// each cropped around its own far point, the target moved, both jittered.
+RegistrationPair makeResampledPair(const PointCloud& cloud, const PairProtocol& protocol,
+                                   const Isometry3d& T_target_source, std::mt19937_64& rng) {
+  const auto n = static_cast<std::size_t>(protocol.num_points);
+  if (cloud.size() < 2 * n)
+    throw ContractError("makePair: the resampled protocol needs 2 x " + std::to_string(n) +
+                        " samples of '" + cloud.frame_id + "', it has " +
+                        std::to_string(cloud.size()) + " (objects.keep_points: 2048)");
+  std::vector<std::size_t> idx(cloud.size());
+  std::iota(idx.begin(), idx.end(), std::size_t{0});
+  std::shuffle(idx.begin(), idx.end(), rng);
+  PointCloud src = cloud.select(std::vector<std::size_t>(idx.begin(), idx.begin() + n));
+  PointCloud tgt = cloud.select(std::vector<std::size_t>(idx.begin() + n, idx.begin() + 2 * n));
+  src.intensity.clear();
+  src.colors.clear();
+  tgt.intensity.clear();
+  tgt.colors.clear();
+  RegistrationPair pair;
+  pair.T_target_source = T_target_source;
+  if (protocol.partial_keep > 0 && protocol.partial_keep < protocol.num_points) {
+    std::pair<Eigen::Vector3f, float> region_t;
+    const auto is = cropNearFarPoint(src, protocol.partial_keep, protocol.partial_far, rng);
+    const auto it =
+        cropNearFarPoint(tgt, protocol.partial_keep, protocol.partial_far, rng, &region_t);
+    src = src.select(is);
+    tgt = tgt.select(it);
+    // No sample is shared: a source point overlaps when its surface location lies in the
+    // target's crop ball.
+    std::size_t inside = 0;
+    for (const auto& p : src.points)
+      inside += (p - region_t.first).norm() <= region_t.second ? 1 : 0;
+    pair.overlap = static_cast<double>(inside) / static_cast<double>(src.size());
+  }
+  tgt.transform(pair.T_target_source);
+  if (protocol.jitter_sigma > 0.0) {
+    double f = 1.0;
+    if (protocol.jitter_uniform) f = std::uniform_real_distribution<double>(0.0, 1.0)(rng);
+    if (f > 0.0) {
+      jitter(src, f * protocol.jitter_sigma, f * protocol.jitter_clip, rng);
+      jitter(tgt, f * protocol.jitter_sigma, f * protocol.jitter_clip, rng);
+    }
+  }
+  if (protocol.outliers > 0) {
+    addOutliers(src, protocol.outliers, rng);
+    addOutliers(tgt, protocol.outliers, rng);
+  }
+  src.frame_id = "source";
+  tgt.frame_id = "target";
+  pair.source = std::move(src);
+  pair.target = std::move(tgt);
+  return pair;
+}
+
 }  // namespace
 
 RegistrationPair makePair(const PointCloud& cloud, const PairProtocol& protocol,
@@ -163,6 +236,9 @@ RegistrationPair makePair(const PointCloud& cloud, const PairProtocol& protocol,
           : randomRienetTransform(rng, protocol.max_angle_deg, protocol.max_translation);
 
   PointCloud src = base, tgt = base;
+  if (protocol.resample) {
+    return makeResampledPair(cloud, protocol, pair.T_target_source, rng);
+  }
   if (protocol.partial_keep > 0 && protocol.partial_keep < static_cast<int>(base.size())) {
     const auto is = cropNearFarPoint(base, protocol.partial_keep, protocol.partial_far, rng);
     const auto it = cropNearFarPoint(base, protocol.partial_keep, protocol.partial_far, rng);
@@ -195,6 +271,98 @@ RegistrationPair makePair(const PointCloud& cloud, const PairProtocol& protocol,
   return pair;
 }
 
+namespace {
+/// Occupied cells of a cubic grid of size `voxel` anchored at `origin`: cell key → point indices.
+std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> voxelCells(
+    const PointCloud& cloud, const Eigen::Vector3f& origin, float voxel) {
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells;
+  cells.reserve(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3f q = (cloud.points[i] - origin) / voxel;
+    const auto ix = static_cast<std::uint64_t>(std::max(0.0f, std::floor(q.x())));
+    const auto iy = static_cast<std::uint64_t>(std::max(0.0f, std::floor(q.y())));
+    const auto iz = static_cast<std::uint64_t>(std::max(0.0f, std::floor(q.z())));
+    cells[(ix & 0x1FFFFF) | ((iy & 0x1FFFFF) << 21) | ((iz & 0x1FFFFF) << 42)].push_back(
+        static_cast<std::uint32_t>(i));
+  }
+  return cells;
+}
+
+std::size_t countCells(const PointCloud& cloud, const Eigen::Vector3f& origin, float voxel) {
+  std::unordered_set<std::uint64_t> keys;
+  keys.reserve(cloud.size());
+  for (const auto& p : cloud.points) {
+    const Eigen::Vector3f q = (p - origin) / voxel;
+    const auto ix = static_cast<std::uint64_t>(std::max(0.0f, std::floor(q.x())));
+    const auto iy = static_cast<std::uint64_t>(std::max(0.0f, std::floor(q.y())));
+    const auto iz = static_cast<std::uint64_t>(std::max(0.0f, std::floor(q.z())));
+    keys.insert((ix & 0x1FFFFF) | ((iy & 0x1FFFFF) << 21) | ((iz & 0x1FFFFF) << 42));
+  }
+  return keys.size();
+}
+}  // namespace
+
+PointCloud voxelKeypoints(const PointCloud& cloud, std::size_t n, std::mt19937_64& rng,
+                          std::vector<std::size_t>* indices) {
+  OBM_ASSERT(n > 0, "voxelKeypoints: n must be > 0");
+  if (cloud.size() <= n) {
+    if (indices) {
+      indices->resize(cloud.size());
+      std::iota(indices->begin(), indices->end(), std::size_t{0});
+    }
+    return cloud;
+  }
+  Eigen::Vector3f lo = cloud.points[0], hi = cloud.points[0];
+  for (const auto& p : cloud.points) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const float extent = std::max(1e-6f, (hi - lo).maxCoeff());
+  // count(v) falls as v grows; find the largest v with count(v) >= n. At v_lo = extent / 2^20
+  // every point is (nearly) its own cell, so count(v_lo) >= n unless points coincide.
+  float v_lo = extent / 1048576.0f, v_hi = extent;
+  if (countCells(cloud, lo, v_lo) < n) v_hi = v_lo;  // duplicates: take the finest grid
+  for (int it = 0; it < 18 && v_hi > v_lo * 1.02f; ++it) {
+    const float mid = std::sqrt(v_lo * v_hi);
+    (countCells(cloud, lo, mid) >= n ? v_lo : v_hi) = mid;
+  }
+  const auto cells = voxelCells(cloud, lo, v_lo);
+  std::vector<const std::vector<std::uint32_t>*> list;
+  list.reserve(cells.size());
+  for (const auto& kv : cells) list.push_back(&kv.second);
+  // Hash-map order is not portable: order the cells by their first point for determinism.
+  std::sort(list.begin(), list.end(), [](const auto* a, const auto* b) { return (*a)[0] < (*b)[0]; });
+  if (list.size() > n) {
+    std::shuffle(list.begin(), list.end(), rng);
+    list.resize(n);
+    std::sort(list.begin(), list.end(),
+              [](const auto* a, const auto* b) { return (*a)[0] < (*b)[0]; });
+  }
+  PointCloud out;
+  out.frame_id = cloud.frame_id;
+  out.points.reserve(list.size());
+  if (indices) indices->clear();
+  for (const auto* cell : list) {
+    Eigen::Vector3f c = Eigen::Vector3f::Zero();
+    for (auto i : *cell) c += cloud.points[i];
+    c /= static_cast<float>(cell->size());
+    out.points.push_back(c);
+    if (indices) {
+      std::uint32_t best = (*cell)[0];
+      float best_d = std::numeric_limits<float>::max();
+      for (auto i : *cell) {
+        const float d = (cloud.points[i] - c).squaredNorm();
+        if (d < best_d) {
+          best_d = d;
+          best = i;
+        }
+      }
+      indices->push_back(best);
+    }
+  }
+  return out;
+}
+
 PointCloud neighbourMean(const PointCloud& cloud, int k) {
   OBM_ASSERT(k >= 0, "neighbourMean: k must be >= 0");
   const std::size_t n = cloud.size();
@@ -217,12 +385,16 @@ PointCloud neighbourMean(const PointCloud& cloud, int k) {
 
 RegistrationPair makeScanPair(const PointCloud& source_scan, const PointCloud& target_scan,
                               const Isometry3d& T_target_source, double voxel, int num_points,
-                              std::mt19937_64& rng) {
+                              std::mt19937_64& rng, bool voxel_keypoints) {
   RegistrationPair pair;
-  pair.source =
-      randomSubset(voxelDownsample(source_scan, voxel), static_cast<std::size_t>(num_points), rng);
-  pair.target =
-      randomSubset(voxelDownsample(target_scan, voxel), static_cast<std::size_t>(num_points), rng);
+  const auto n = static_cast<std::size_t>(num_points);
+  if (voxel_keypoints) {
+    pair.source = voxelKeypoints(voxelDownsample(source_scan, voxel), n, rng);
+    pair.target = voxelKeypoints(voxelDownsample(target_scan, voxel), n, rng);
+  } else {
+    pair.source = randomSubset(voxelDownsample(source_scan, voxel), n, rng);
+    pair.target = randomSubset(voxelDownsample(target_scan, voxel), n, rng);
+  }
   pair.T_target_source = T_target_source;
   pair.overlap = -1.0;  // unknown for real scans
   return pair;

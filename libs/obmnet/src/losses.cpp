@@ -29,7 +29,7 @@ torch::Tensor selectKeypoints(const torch::Tensor& weights, int64_t n) {
 
 torch::Tensor neighborhoodLoss(const torch::Tensor& src, const torch::Tensor& tgt,
                                const torch::Tensor& pseudo_tgt, const RigidTransforms& T,
-                               const torch::Tensor& keypoints, int64_t k) {
+                               const torch::Tensor& keypoints, int64_t k, bool nearest) {
   OBM_ASSERT(src.sizes() == pseudo_tgt.sizes(), "neighborhoodLoss: src and pseudo-target differ");
   OBM_ASSERT(keypoints.dim() == 2 && keypoints.size(0) == src.size(0),
              "neighborhoodLoss: keypoints must be B×K");
@@ -45,7 +45,18 @@ torch::Tensor neighborhoodLoss(const torch::Tensor& src, const torch::Tensor& tg
   const auto ny = knnIndices(y.detach(), tgt.detach(), kk);
   const auto P = gatherNeighbors(src, nx).reshape({B, 3, K * kk});
   const auto Q = gatherNeighbors(tgt, ny).reshape({B, 3, K * kk});
-  const auto r = transformPoints(T, P) - Q;
+  const auto TP = transformPoints(T, P);
+  if (nearest) {
+    // Per keypoint, the kk×kk distances between its moved source neighbours and its target
+    // neighbours: (B·K)×kk×kk.
+    const auto a = TP.reshape({B, 3, K, kk}).permute({0, 2, 3, 1}).reshape({B * K, kk, 3});
+    const auto b = Q.reshape({B, 3, K, kk}).permute({0, 2, 3, 1}).reshape({B * K, kk, 3});
+    const auto d2 = (a.unsqueeze(2) - b.unsqueeze(1)).pow(2).sum(3);
+    const auto d_ab = (d2.amin(2) + 1e-12).sqrt();  // each source neighbour → nearest target
+    const auto d_ba = (d2.amin(1) + 1e-12).sqrt();  // each target neighbour → nearest source
+    return 0.5 * (d_ab.mean() + d_ba.mean());
+  }
+  const auto r = TP - Q;
   // A tiny offset keeps the gradient of the norm finite at an exact match.
   return (r.pow(2).sum(1) + 1e-12).sqrt().mean();
 }

@@ -127,14 +127,16 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
     // overlapping points count (1 + α) times inside the overlap and once outside. α > 0 keeps every
     // weight positive; a single α on every weight would cancel in the normalised centroids.
     const auto omega = w * (1.0 + alpha.unsqueeze(1) * membership);
-    const auto T_step = obmnet::weightedProcrustes(src_cur, pseudo, omega);
+    const auto T_step = config_.planar ? obmnet::weightedProcrustesYaw(src_cur, pseudo, omega)
+                                    : obmnet::weightedProcrustes(src_cur, pseudo, omega);
     T = obmnet::compose(T_step, T);
 
     if (compute_loss) {
       const auto src_new = obmnet::transformPoints(T_step, src_cur);
       loss_g = loss_g + obmnet::globalAlignmentLoss(src_new, tgt, config_.loss_margin);
       const auto kp = obmnet::selectKeypoints(w, config_.n_keypoints);
-      loss_n = loss_n + obmnet::neighborhoodLoss(src_cur, tgt, pseudo, T_step, kp, config_.k1);
+      loss_n = loss_n + obmnet::neighborhoodLoss(src_cur, tgt, pseudo, T_step, kp, config_.k1,
+                                                 config_.neighbor_loss_nearest);
       loss_s = loss_s + obmnet::spatialConsistencyLoss(log_match, kp);
     }
     if (it + 1 == config_.n_iters) {

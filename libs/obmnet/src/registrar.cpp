@@ -2,6 +2,8 @@
 
 #include <torch/torch.h>
 
+#include <algorithm>
+#include <limits>
 #include <mutex>
 
 #include "obm/core/cloud_ops.hpp"
@@ -61,33 +63,93 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
   RegistrationResult r;
   std::mt19937_64 rng(impl_->opt.seed);
   const auto n = static_cast<std::size_t>(impl_->opt.num_points);
-  r.source_sampled = randomSubset(source, n, rng, &r.source_indices);
-  r.target_sampled = randomSubset(target, n, rng);
+  if (cfg.voxel_keypoints) {
+    // The model was trained on voxel keypoints (scans): sample as in training.
+    r.source_sampled = obmnet::voxelKeypoints(source, n, rng, &r.source_indices);
+    r.target_sampled = obmnet::voxelKeypoints(target, n, rng);
+  } else {
+    r.source_sampled = randomSubset(source, n, rng, &r.source_indices);
+    r.target_sampled = randomSubset(target, n, rng);
+  }
   const auto norm = obmnet::PairNormalization::compute(r.source_sampled, r.target_sampled,
                                                        impl_->meta.normalize_radius);
   PointCloud src = obmnet::neighbourMean(r.source_sampled, impl_->opt.denoise_neighbors);
   PointCloud tgt = obmnet::neighbourMean(r.target_sampled, impl_->opt.denoise_neighbors);
   norm.applySource(src);
   norm.applyTarget(tgt);
+  int H = impl_->opt.yaw_hypotheses > 0 ? impl_->opt.yaw_hypotheses : (cfg.planar ? 4 : 1);
+  H = std::max(1, H);
+  // The hypotheses: the normalised source turned about z (through its centroid, the normalised
+  // origin) by 360°·h/H, in one batch; pose h is then T̂_h · Rz_h.
+  std::vector<Eigen::Matrix3d> Rz(static_cast<std::size_t>(H));
+  torch::Tensor src_t = toTensor(src), tgt_t = toTensor(tgt);
+  if (H > 1) {
+    std::vector<torch::Tensor> rows;
+    for (int h = 0; h < H; ++h) {
+      Rz[static_cast<std::size_t>(h)] =
+          Eigen::AngleAxisd(2.0 * 3.14159265358979323846 * h / H, Eigen::Vector3d::UnitZ())
+              .toRotationMatrix();
+      rows.push_back(toTensor(src.transformed(
+          makeIsometry(Rz[static_cast<std::size_t>(h)], Eigen::Vector3d::Zero()), src.frame_id)));
+    }
+    src_t = torch::cat(rows, 0);
+    tgt_t = tgt_t.repeat({H, 1, 1});
+  } else {
+    Rz[0] = Eigen::Matrix3d::Identity();
+  }
   ObmNetOutput o;
   {
     std::lock_guard<std::mutex> lock(impl_->mutex);
     torch::NoGradGuard ng;
-    o = impl_->model->forward(toTensor(src), toTensor(tgt), false);
+    o = impl_->model->forward(src_t, tgt_t, false);
   }
-  const auto R = o.R[0].to(torch::kFloat64).contiguous();
-  const auto t = o.t[0].to(torch::kFloat64).contiguous();
-  Eigen::Matrix3d Rm;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) Rm(i, j) = R[i][j].item<double>();
-  const Isometry3d T_hat =
-      makeIsometry(orthonormalize(Rm),
-                   Eigen::Vector3d(t[0].item<double>(), t[1].item<double>(), t[2].item<double>()));
-  r.T_target_source = norm.denormalize(T_hat);
-  r.alpha = o.alpha[0].item<double>();
-  r.overlap = o.overlap[0].item<double>();
-  const auto w = o.weights[0].contiguous();
-  const auto m = o.membership[0].contiguous();
+  // Fitness of each hypothesis on the normalised keypoints: the share of source points with a
+  // target point within twice the target's median spacing (brute force: ≤ 2048² distances).
+  const std::size_t M = tgt.size();
+  std::vector<float> spacing(M, std::numeric_limits<float>::max());
+  for (std::size_t a = 0; a < M; ++a)
+    for (std::size_t b = 0; b < M; ++b)
+      if (a != b) spacing[a] = std::min(spacing[a], (tgt.points[a] - tgt.points[b]).squaredNorm());
+  std::nth_element(spacing.begin(), spacing.begin() + static_cast<std::ptrdiff_t>(M / 2),
+                   spacing.end());
+  const float gate2 = 4.0f * spacing[M / 2];
+  int best = 0;
+  double best_fit = -1.0;
+  std::vector<Isometry3d> T_hat(static_cast<std::size_t>(H));
+  for (int h = 0; h < H; ++h) {
+    const auto R = o.R[h].to(torch::kFloat64).contiguous();
+    const auto t = o.t[h].to(torch::kFloat64).contiguous();
+    Eigen::Matrix3d Rm;
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) Rm(a, b) = R[a][b].item<double>();
+    T_hat[static_cast<std::size_t>(h)] =
+        makeIsometry(orthonormalize(Rm), Eigen::Vector3d(t[0].item<double>(), t[1].item<double>(),
+                                                         t[2].item<double>())) *
+        makeIsometry(Rz[static_cast<std::size_t>(h)], Eigen::Vector3d::Zero());
+    const Eigen::Matrix3f Rf = T_hat[static_cast<std::size_t>(h)].linear().cast<float>();
+    const Eigen::Vector3f tf = T_hat[static_cast<std::size_t>(h)].translation().cast<float>();
+    std::size_t in = 0;
+    for (const auto& p : src.points) {
+      const Eigen::Vector3f q = Rf * p + tf;
+      for (const auto& y : tgt.points)
+        if ((q - y).squaredNorm() <= gate2) {
+          ++in;
+          break;
+        }
+    }
+    const double fit = static_cast<double>(in) / static_cast<double>(std::max<std::size_t>(1, src.size()));
+    if (fit > best_fit) {
+      best_fit = fit;
+      best = h;
+    }
+  }
+  r.T_target_source = norm.denormalize(T_hat[static_cast<std::size_t>(best)]);
+  r.fitness = best_fit;
+  r.hypothesis_yaw_deg = 360.0 * best / H;
+  r.alpha = o.alpha[best].item<double>();
+  r.overlap = o.overlap[best].item<double>();
+  const auto w = o.weights[best].contiguous();
+  const auto m = o.membership[best].contiguous();
   r.inlier_weights.assign(w.data_ptr<float>(), w.data_ptr<float>() + w.numel());
   r.overlap_membership.assign(m.data_ptr<float>(), m.data_ptr<float>() + m.numel());
   r.runtime_ms = timer.ms();

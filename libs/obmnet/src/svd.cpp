@@ -39,6 +39,38 @@ RigidTransforms weightedProcrustes(const torch::Tensor& src, const torch::Tensor
   return {R.to(dtype), t.to(dtype)};
 }
 
+RigidTransforms weightedProcrustesYaw(const torch::Tensor& src, const torch::Tensor& tgt,
+                                      const torch::Tensor& weights, double eps) {
+  OBM_ASSERT(src.dim() == 3 && src.size(1) == 3 && src.sizes() == tgt.sizes(),
+             "weightedProcrustesYaw expects src and tgt B×3×N of equal shape");
+  OBM_ASSERT(weights.dim() == 2 && weights.size(0) == src.size(0) && weights.size(1) == src.size(2),
+             "weightedProcrustesYaw expects weights B×N");
+  const auto dtype = src.scalar_type();
+  const auto x = src.to(torch::kFloat64);
+  const auto y = tgt.to(torch::kFloat64);
+  auto w = weights.to(torch::kFloat64).clamp_min(0.0);
+  const auto total = w.sum(1, /*keepdim=*/true);
+  w = torch::where(total > eps, w, torch::ones_like(w));
+  w = w / w.sum(1, /*keepdim=*/true);
+  const auto wu = w.unsqueeze(1);
+  const auto x_bar = (x * wu).sum(2);  // B×3
+  const auto y_bar = (y * wu).sum(2);
+  const auto a = x - x_bar.unsqueeze(2);
+  const auto b = y - y_bar.unsqueeze(2);
+  const auto ax = a.select(1, 0), ay = a.select(1, 1), bx = b.select(1, 0), by = b.select(1, 1);
+  const auto s = (w * (ax * by - ay * bx)).sum(1);  // Σ w (a × b)_z
+  const auto c = (w * (ax * bx + ay * by)).sum(1);  // Σ w a·b (in the plane)
+  // atan2's gradient is 1/(s² + c²): bounded away from the degenerate pair (all points on z).
+  const auto theta = torch::atan2(s, c + 1e-300);
+  const auto ct = torch::cos(theta), st = torch::sin(theta);
+  const auto zero = torch::zeros_like(ct), one = torch::ones_like(ct);
+  const auto R = torch::stack({torch::stack({ct, -st, zero}, 1), torch::stack({st, ct, zero}, 1),
+                               torch::stack({zero, zero, one}, 1)},
+                              1);  // B×3×3
+  const auto t = y_bar - torch::bmm(R, x_bar.unsqueeze(2)).squeeze(2);
+  return {R.to(dtype), t.to(dtype)};
+}
+
 torch::Tensor transformPoints(const RigidTransforms& T, const torch::Tensor& points) {
   return torch::bmm(T.R, points) + T.t.unsqueeze(2);
 }

@@ -12,7 +12,8 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   ObmNetMatcherParams p;
   node.checkKeys(
       {"model_path", "num_points", "threads", "seed", "denoise_neighbors", "pre_align",
-       "keep_init_if_better", "overlap_stage_keep", "overlap_stage_gate_factor"});
+       "keep_init_if_better", "overlap_stage_keep", "overlap_stage_gate_factor",
+       "yaw_hypotheses"});
   p.model_path = node.required<std::string>("model_path");
   node.get("num_points", p.num_points);
   node.get("threads", p.threads);
@@ -22,6 +23,8 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   node.get("keep_init_if_better", p.keep_init_if_better);
   node.get("overlap_stage_keep", p.overlap_stage_keep);
   node.get("overlap_stage_gate_factor", p.overlap_stage_gate_factor);
+  node.get("yaw_hypotheses", p.yaw_hypotheses);
+  if (p.yaw_hypotheses < 0) throw ConfigError(node.where("yaw_hypotheses") + ": must be >= 0");
   if (!(p.overlap_stage_keep >= 0.0 && p.overlap_stage_keep <= 1.0))
     throw ConfigError(node.where("overlap_stage_keep") + ": must be in [0, 1]");
   if (!(p.overlap_stage_gate_factor >= 1.0))
@@ -42,9 +45,9 @@ ScanMatcherConfig ScanMatcherConfig::load(const ConfigNode& node) {
   ScanMatcherConfig c;
   node.checkKeys({"type", "icp", "obmnet", "confidence"});
   node.get("type", c.type);
-  if (c.type != "icp" && c.type != "obmnet" && c.type != "obmnet+icp")
+  if (c.type != "icp" && c.type != "obmnet" && c.type != "obmnet+icp" && c.type != "obmm+icp")
     throw ConfigError(node.where("type") + ": unknown matcher type '" + c.type +
-                      "' (icp, obmnet, obmnet+icp)");
+                      "' (icp, obmnet, obmnet+icp, obmm+icp)");
   c.icp = IcpParams::load(node.child("icp"));
   c.confidence = ConfidenceParams::load(node.child("confidence"));
   if (c.type != "icp") {
@@ -63,7 +66,10 @@ std::unique_ptr<ScanMatcher> makeScanMatcher(const ScanMatcherConfig& config) {
     return std::make_unique<ObmNetMatcher>(config.obmnet, config.icp, config.confidence);
   if (config.type == "obmnet+icp")
     return std::make_unique<ObmNetIcpMatcher>(config.obmnet, config.icp, config.confidence);
-  throw ConfigError("scan matcher: unknown type '" + config.type + "' (icp, obmnet, obmnet+icp)");
+  if (config.type == "obmm+icp")
+    return std::make_unique<ObmmIcpMatcher>(config.obmnet, config.icp, config.confidence);
+  throw ConfigError("scan matcher: unknown type '" + config.type +
+                    "' (icp, obmnet, obmnet+icp, obmm+icp)");
 }
 
 }  // namespace obm

@@ -36,6 +36,7 @@ struct Problem {
   const std::vector<Vector3f>& src;
   const PreparedTarget& target;
   const IcpParams& params;
+  const std::vector<double>* weights = nullptr;  ///< per source point prior weights (or all 1)
 };
 
 /// Left-perturbed pose update used by the linearisation below: T ← (exp(θ), ρ) ∘ T, i.e.
@@ -90,14 +91,15 @@ Normal evaluate(const Problem& pb, std::vector<Correspondence>& corr, const Isom
                              if (search) corr[i] = findCorrespondence(pb, pt, search_gate);
                              const Correspondence& k = corr[i];
                              if (k.kind == kNone) continue;
+                             const double pw = pb.weights ? (*pb.weights)[i] : 1.0;
                              const Eigen::Vector3d q = tgt[std::size_t(k.target)].cast<double>();
                              ++P.count;
                              if (k.kind == kPlane) {
                                const Eigen::Vector3d n = nrm[std::size_t(k.target)].cast<double>();
                                const double r = n.dot(pt - q);
-                               P.cost += robustCost(kernel, r, c);
+                               P.cost += pw * robustCost(kernel, r, c);
                                if (!normal) continue;
-                               const double w = robustWeight(kernel, r, c);
+                               const double w = pw * robustWeight(kernel, r, c);
                                Vector6d J;
                                J << n, pt.cross(n);
                                P.H.noalias() += w * J * J.transpose();
@@ -105,9 +107,9 @@ Normal evaluate(const Problem& pb, std::vector<Correspondence>& corr, const Isom
                              } else {
                                const Eigen::Vector3d rv = pt - q;
                                const double rn = rv.norm();
-                               P.cost += robustCost(kernel, rn, c);
+                               P.cost += pw * robustCost(kernel, rn, c);
                                if (!normal) continue;
-                               const double w = robustWeight(kernel, rn, c);
+                               const double w = pw * robustWeight(kernel, rn, c);
                                // JᵀJ = [[I, −S], [S, −S²]] with S = [p']×; Jᵀr = [r; p' × r].
                                Eigen::Matrix3d S;
                                S << 0, -pt.z(), pt.y(), pt.z(), 0, -pt.x(), -pt.y(), pt.x(), 0;
@@ -147,11 +149,15 @@ Vector6d solveStep(const Matrix6d& H, const Vector6d& g, double lambda, bool lm)
 }  // namespace
 
 IcpOutcome runIcp(const std::vector<Vector3f>& source_points, const PreparedTarget& target,
-                  const Isometry3d& T_target_source_init, const IcpParams& params) {
+                  const Isometry3d& T_target_source_init, const IcpParams& params,
+                  const std::vector<double>* point_weights) {
   params.validate();
+  if (point_weights && point_weights->size() != source_points.size())
+    throw ContractError("runIcp: " + std::to_string(point_weights->size()) + " weights for " +
+                        std::to_string(source_points.size()) + " source points");
   IcpOutcome out;
   out.T_target_source = T_target_source_init;
-  const Problem pb{source_points, target, params};
+  const Problem pb{source_points, target, params, point_weights};
   const double fine = params.max_correspondence_distance;
   double gate = params.initial_max_correspondence_distance > fine
                     ? params.initial_max_correspondence_distance
@@ -226,7 +232,7 @@ IcpOutcome runIcp(const std::vector<Vector3f>& source_points, const PreparedTarg
     polish.initial_max_correspondence_distance = fine;
     polish.max_correspondence_distance = std::min(fine, params.polish_max_correspondence_distance);
     polish.polish_max_correspondence_distance = 0.0;
-    const IcpOutcome p = runIcp(source_points, target, T, polish);
+    const IcpOutcome p = runIcp(source_points, target, T, polish, point_weights);
     if (p.status == MatchStatus::TooFewCorrespondences) return out;  // keep the plane result
     out.T_target_source = p.T_target_source;
     out.iterations += p.iterations;
@@ -246,6 +252,7 @@ void applyConfidence(MatchResult& result, const AlignmentStats& all_stats,
   result.num_correspondences = all_stats.num_correspondences;
   result.inlier_ratio = all_stats.inlier_ratio;
   result.rmse = all_stats.rmse;
+  result.fitness = all_stats.overlap;
   if (set_overlap) result.overlap = all_stats.overlap;
   result.information = info_stats.information;
   result.sigma = std::sqrt(info_stats.sigma2_used);

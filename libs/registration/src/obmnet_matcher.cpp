@@ -33,6 +33,7 @@ ObmNetRegistrar makeRegistrar(const ObmNetMatcherParams& p) {
   o.threads = p.threads;
   o.seed = p.seed;
   o.denoise_neighbors = p.denoise_neighbors;
+  o.yaw_hypotheses = p.yaw_hypotheses;
   return ObmNetRegistrar(o);
 }
 
@@ -90,6 +91,23 @@ NetworkStage runNetwork(const ObmNetRegistrar& reg, const ObmNetMatcherParams& p
   return s;
 }
 
+/// MatchResult::network_confidence: the share of the network's SVD weight on sampled source
+/// points that have a target point within `inlier_threshold` at `T_target_source`.
+double biasWeightedConfidence(const NetworkStage& net, const PreparedTarget& target,
+                              const Isometry3d& T_target_source, double inlier_threshold) {
+  const Eigen::Matrix3f R = T_target_source.linear().cast<float>();
+  const Eigen::Vector3f t = T_target_source.translation().cast<float>();
+  double num = 0.0, den = 0.0;
+  std::size_t idx = 0;
+  float d2 = 0.0f;
+  for (std::size_t i = 0; i < net.sampled.size(); ++i) {
+    const double w = net.prior[i];
+    den += w;
+    if (target.nearest(R * net.sampled[i] + t, inlier_threshold, idx, d2)) num += w;
+  }
+  return den > 0.0 ? num / den : 0.0;
+}
+
 MatchResult networkFailure(const NetworkStage& s, const Isometry3d& T_init) {
   MatchResult m;
   m.T_target_source = T_init;
@@ -130,6 +148,8 @@ MatchResult ObmNetMatcher::impl_match(const PointCloud& source, const PreparedTa
   const AlignmentStats info =
       evaluateAlignment(net.sampled, &net.prior, target, result.T_target_source, icp_, confidence_);
   applyConfidence(result, all, info, false, icp_, confidence_);
+  result.network_confidence = biasWeightedConfidence(net, target, result.T_target_source,
+                                                     confidence_.inlier_threshold);
   return result;
 }
 
@@ -222,7 +242,93 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
   const AlignmentStats info =
       evaluateAlignment(net.sampled, &net.prior, target, result.T_target_source, icp_, confidence_);
   applyConfidence(result, all, info, false, icp_, confidence_);
+  result.network_confidence = biasWeightedConfidence(net, target, result.T_target_source,
+                                                     confidence_.inlier_threshold);
   return result;
+}
+
+struct ObmmIcpMatcher::Impl {
+  ObmNetMatcherParams params;
+  ObmNetRegistrar registrar;
+};
+
+ObmmIcpMatcher::ObmmIcpMatcher(const ObmNetMatcherParams& params, const IcpParams& icp,
+                               const ConfidenceParams& confidence)
+    : ScanMatcher(icp, confidence), impl_(new Impl{params, makeRegistrar(params)}) {}
+
+ObmmIcpMatcher::~ObmmIcpMatcher() = default;
+
+MatchResult ObmmIcpMatcher::impl_match(const PointCloud& source, const PreparedTarget& target,
+                                       const Isometry3d& T_target_source_init) const {
+  const NetworkStage net =
+      runNetwork(impl_->registrar, impl_->params, source, target, T_target_source_init);
+  if (!net.ok) return networkFailure(net, T_target_source_init);
+  // Every source point takes the module's weight of its nearest network point (the network saw a
+  // sample of the source).
+  PointCloud sampled;
+  sampled.points = net.sampled;
+  PreparedTargetOptions o;
+  o.normal_neighbors = 3;
+  o.threads = 1;
+  const PreparedTarget index(sampled, o);
+  std::vector<double> weights(source.size(), 0.0);
+  double mean_w = 0.0;
+  for (double w : net.prior) mean_w += w / static_cast<double>(net.prior.size());
+  std::size_t j = 0;
+  float d2 = 0.0f;
+  for (std::size_t i = 0; i < source.size(); ++i)
+    weights[i] = index.nearest(source.points[i], 1e30, j, d2) ? net.prior[j] / mean_w : 0.0;
+  const IcpOutcome icp = runIcp(source.points, target, T_target_source_init, icp_, &weights);
+  MatchResult result;
+  result.T_target_source = icp.T_target_source;
+  result.status = icp.status;
+  result.message = icp.message;
+  result.converged = icp.converged;
+  result.iterations = icp.iterations;
+  result.num_correspondences = icp.num_correspondences;
+  result.alpha = net.alpha;
+  result.overlap = net.overlap;
+  if (icp.status == MatchStatus::TooFewCorrespondences) return result;
+  const AlignmentStats all =
+      evaluateAlignment(source.points, nullptr, target, result.T_target_source, icp_, confidence_);
+  const AlignmentStats info =
+      evaluateAlignment(net.sampled, &net.prior, target, result.T_target_source, icp_, confidence_);
+  applyConfidence(result, all, info, false, icp_, confidence_);
+  result.network_confidence = biasWeightedConfidence(net, target, result.T_target_source,
+                                                     confidence_.inlier_threshold);
+  return result;
+}
+
+struct OverlapPredictor::Impl {
+  ObmNetMatcherParams params;
+  ObmNetRegistrar registrar;
+};
+
+OverlapPredictor::OverlapPredictor(const ObmNetMatcherParams& params)
+    : impl_(new Impl{params, makeRegistrar(params)}) {}
+
+OverlapPredictor::~OverlapPredictor() = default;
+
+OverlapPrediction OverlapPredictor::predict(const PointCloud& source,
+                                            const PointCloud& target) const {
+  auto weightsOf = [](const RegistrationResult& r, std::vector<double>& w) {
+    w.resize(r.inlier_weights.size());
+    for (std::size_t i = 0; i < w.size(); ++i) {
+      const double m = i < r.overlap_membership.size()
+                           ? std::clamp(double(r.overlap_membership[i]), 0.0, 1.0)
+                           : 0.0;
+      w[i] = double(r.inlier_weights[i]) * (1.0 + r.alpha * m);
+    }
+  };
+  OverlapPrediction out;
+  const RegistrationResult a = impl_->registrar.align(source, target);
+  const RegistrationResult b = impl_->registrar.align(target, source);
+  out.source_points = a.source_sampled.points;
+  out.target_points = b.source_sampled.points;
+  weightsOf(a, out.source_weights);
+  weightsOf(b, out.target_weights);
+  out.alpha = a.alpha;
+  return out;
 }
 
 #else  // no LibTorch
@@ -263,6 +369,26 @@ std::string ObmNetIcpMatcher::describe() const {
 }
 MatchResult ObmNetIcpMatcher::impl_match(const PointCloud&, const PreparedTarget&,
                                          const Isometry3d&) const {
+  noTorch();
+}
+
+struct ObmmIcpMatcher::Impl {};
+ObmmIcpMatcher::ObmmIcpMatcher(const ObmNetMatcherParams&, const IcpParams& icp,
+                               const ConfidenceParams& confidence)
+    : ScanMatcher(icp, confidence) {
+  noTorch();
+}
+ObmmIcpMatcher::~ObmmIcpMatcher() = default;
+MatchResult ObmmIcpMatcher::impl_match(const PointCloud&, const PreparedTarget&,
+                                       const Isometry3d&) const {
+  noTorch();
+}
+struct OverlapPredictor::Impl {};
+OverlapPredictor::OverlapPredictor(const ObmNetMatcherParams&) {
+  noTorch();
+}
+OverlapPredictor::~OverlapPredictor() = default;
+OverlapPrediction OverlapPredictor::predict(const PointCloud&, const PointCloud&) const {
   noTorch();
 }
 

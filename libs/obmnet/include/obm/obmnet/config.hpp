@@ -45,6 +45,17 @@ struct ObmNetConfig {
   /// Back-propagate through the NMM neighbourhood score S (memory and time heavy on a CPU); off =
   /// S is a constant factor of M^e in the backward pass (the forward pass is the same).
   bool nmm_score_grad = false;
+  /// 4-DoF solve for gravity-aligned sensors (LiDAR on a car): the weighted Procrustes of step 8
+  /// estimates yaw about z and a 3-D translation only (roll = pitch = 0), in closed form
+  /// (weightedProcrustesYaw). Two free parameters fewer, and no roll/pitch error to learn.
+  bool planar = false;
+  /// Input sampling at inference: voxel keypoints (obmnet::voxelKeypoints, the same cells in two
+  /// scans of one place) instead of a random subset. Recorded with the weights so that inference
+  /// samples as training did.
+  bool voxel_keypoints = false;
+  /// L_n in its nearest-neighbour form (neighborhoodLoss, `nearest`), for clouds that do not
+  /// share their samples; false = RIENet's pairing by rank. Training only.
+  bool neighbor_loss_nearest = false;
   /// Seed of the Gumbel noise. Training draws a fresh stream from it; every forward pass in eval
   /// mode re-seeds, so registering the same pair twice gives the same result.
   std::uint64_t seed = 0;

@@ -33,6 +33,11 @@ struct PairProtocol {
   /// Points drawn from the object's cloud for both source and target (the *same* points, as in
   /// DCP/RIENet's ModelNet40 protocol).
   int num_points = 1024;
+  /// Independent samplings: source and target take *disjoint* random subsets of `num_points` of
+  /// the object's cloud, which must then hold at least 2·num_points i.i.d. surface samples (the
+  /// object set's `keep_points: 2048`). Two halves of one i.i.d. area-weighted sample are two
+  /// independent samplings of the surface: no point is shared, as between two real scans.
+  bool resample = false;
   /// Rotation: each Euler angle ~ U[0, max_angle_deg] with R = Rx·Ry·Rz (RIENet), or, with
   /// `axis_angle`, a uniform axis and angle ~ U[0, max_angle_deg] (ICL-NUIM protocol).
   double max_angle_deg = 45.0;
@@ -57,7 +62,9 @@ struct PairProtocol {
 
   /// A named preset: clean, jitter, outliers, partial (768 of 1024, RIENet), partial_noise
   /// (640 of 1024 with σ = 0.01 jitter: overlap ≈ 0.65), indoor (7Scenes fragments: 2048 → 1536),
-  /// icl (axis-angle ≤ 45°, ‖t‖ ≤ 0.5). Throws ConfigError for an unknown name.
+  /// icl (axis-angle ≤ 45°, ‖t‖ ≤ 0.5), resampled (independent samplings of 1024 points each,
+  /// each cropped to 768 around its own far point, σ = 0.005 jitter). Throws ConfigError for an
+  /// unknown name.
   static PairProtocol preset(const std::string& name);
   /// Reads `preset` (optional, applied first) then the individual keys. Unknown keys rejected.
   static PairProtocol load(const ConfigNode& node);
@@ -68,7 +75,8 @@ struct RegistrationPair {
   PointCloud source;
   PointCloud target;
   Isometry3d T_target_source = Isometry3d::Identity();  ///< ground truth (evaluation only)
-  /// Fraction of the source points whose original point is also in the target (1 without crop).
+  /// Fraction of the source points whose original point is also in the target (1 without crop);
+  /// with independent samplings, the fraction of source points inside the target's crop region.
   double overlap = 1.0;
   std::string name;  ///< object name (or sequence/frame ids)
 };
@@ -82,9 +90,20 @@ RegistrationPair makePair(const PointCloud& cloud, const PairProtocol& protocol,
 /// A scan pair (KITTI (i, i+j) protocol): each scan voxelised at `voxel` [m], then `num_points`
 /// random points kept; `T_target_source` is the true relative pose (e.g. from ground truth) — it
 /// is only used to report errors, never for training.
+/// With `voxel_keypoints`, the N points are voxel keypoints (voxelKeypoints) of the voxelised
+/// scan instead of a random subset.
 RegistrationPair makeScanPair(const PointCloud& source_scan, const PointCloud& target_scan,
                               const Isometry3d& T_target_source, double voxel, int num_points,
-                              std::mt19937_64& rng);
+                              std::mt19937_64& rng, bool voxel_keypoints = false);
+
+/// Voxel keypoints: `n` points of `cloud` that cover it evenly, so that two scans of the same
+/// place give nearly the same points where random subsets of each would share none. The cloud is
+/// put on the coarsest cubic grid that still has at least `n` occupied cells (the cell size found
+/// by bisection on a log scale), each cell gives the centroid of its points, and `n` of the cells
+/// are kept at random when there are more. `indices` (optional) receives, per keypoint, the input
+/// point nearest to it. Clouds of at most `n` points are returned whole.
+PointCloud voxelKeypoints(const PointCloud& cloud, std::size_t n, std::mt19937_64& rng,
+                          std::vector<std::size_t>* indices = nullptr);
 
 /// Replaces every point by the mean of itself and its k nearest neighbours (Euclidean, brute
 /// force: meant for the network's ≤ 2048-point clouds). Per-point jitter of σ drops to about

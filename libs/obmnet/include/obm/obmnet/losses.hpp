@@ -27,9 +27,17 @@ torch::Tensor selectKeypoints(const torch::Tensor& weights, int64_t n);
 /// A neighbourhood that moves rigidly with its keypoint agrees; one that does not (an outlier
 /// keypoint, a wrong match) is penalised without any ground truth.
 /// `src` B×3×N (the cloud `T` applies to), `tgt` B×3×M, `pseudo_tgt` B×3×N, `keypoints` B×K.
+/// `nearest`: the form for independently sampled clouds. Pairing by rank assumes that the j-th
+/// neighbour of x_i and the j-th neighbour of y_i are the same surface point, which holds only
+/// when both clouds carry the same samples (RIENet's pairs); two scans never do, and the rank
+/// pairs are then a sampling spacing apart in random directions at the true pose. Instead each
+/// moved source neighbour is paired with its nearest target neighbour of y_i and each target
+/// neighbour with its nearest moved source neighbour (a Chamfer distance between the two
+/// neighbourhoods, the mean of both directions), which vanishes at the true pose as the sampling
+/// gets dense, whatever the samples.
 torch::Tensor neighborhoodLoss(const torch::Tensor& src, const torch::Tensor& tgt,
                                const torch::Tensor& pseudo_tgt, const RigidTransforms& T,
-                               const torch::Tensor& keypoints, int64_t k);
+                               const torch::Tensor& keypoints, int64_t k, bool nearest = false);
 
 /// L_s spatial consistency: −log M^r_ij at each keypoint's row argmax j, averaged over keypoints
 /// and batch. `log_match` is log M^r (B×N×M, from log-softmax for accuracy), `keypoints` B×K.

@@ -28,6 +28,12 @@ struct RegistrationResult {
   /// The sampled source and target points (input frames, not normalised).
   PointCloud source_sampled, target_sampled;
   double runtime_ms = 0.0;  ///< wall time of the call (sampling + network)
+  /// Fraction of the sampled source points whose nearest sampled target point lies within twice
+  /// the target's median point spacing at the returned pose: the score that chose among the yaw
+  /// hypotheses (computed for every call).
+  double fitness = 0.0;
+  /// Yaw of the hypothesis the returned pose started from [deg] (0 with a single hypothesis).
+  double hypothesis_yaw_deg = 0.0;
 };
 
 /// Registers point clouds with a trained OBMNet model.
@@ -43,6 +49,12 @@ class ObmNetRegistrar {
     /// obmnet::neighbourMean). For per-point sensor noise the model was not trained on; the
     /// returned sampled clouds stay the raw points.
     int denoise_neighbors = 0;
+    /// Yaw hypotheses: the source is also turned by 360°/H, 2·360°/H, … about z before the
+    /// network, all H in one batch, and the pose with the best `fitness` is returned. For
+    /// gravity-aligned scans seen from any heading (loop closures from the other direction),
+    /// where one network pass covers about ±45°. 0 = the model's default (4 for a planar model,
+    /// else 1); 1 = off.
+    int yaw_hypotheses = 0;
   };
 
   /// Loads the model. A missing, corrupt or mismatched file throws IoError / FormatError naming it.

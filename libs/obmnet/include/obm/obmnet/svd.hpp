@@ -21,6 +21,12 @@ struct RigidTransforms {
 RigidTransforms weightedProcrustes(const torch::Tensor& src, const torch::Tensor& tgt,
                                    const torch::Tensor& weights, double eps = 1e-12);
 
+/// The 4-DoF weighted Procrustes (yaw about z, translation): with a = x − x̄, b = y − ȳ the
+/// weighted least-squares yaw is θ = atan2(Σ w (a_x b_y − a_y b_x), Σ w (a_x b_x + a_y b_y)), R =
+/// Rz(θ), t = ȳ − R x̄. Closed form, so its gradient has none of the SVD's degenerate cases.
+RigidTransforms weightedProcrustesYaw(const torch::Tensor& src, const torch::Tensor& tgt,
+                                      const torch::Tensor& weights, double eps = 1e-12);
+
 /// R·p + t for points B×3×N.
 torch::Tensor transformPoints(const RigidTransforms& T, const torch::Tensor& points);
 

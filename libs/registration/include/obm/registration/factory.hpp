@@ -2,7 +2,7 @@
 /// \file factory.hpp
 /// A scan matcher assembled from YAML:
 /// \code{.yaml}
-/// type: obmnet+icp          # icp | obmnet | obmnet+icp
+/// type: obmnet+icp          # icp | obmnet | obmnet+icp | obmm+icp
 /// icp: {max_correspondence_distance: 1.0, kernel: huber, kernel_scale: 0.1}
 /// obmnet: {model_path: ../../share/obmslam/obmnet_kitti.pt, pre_align: true}
 /// confidence: {inlier_threshold: 0.2}
@@ -21,7 +21,7 @@ class ConfigNode;
 
 /// Everything needed to build a matcher.
 struct ScanMatcherConfig {
-  std::string type = "icp";  ///< "icp", "obmnet" or "obmnet+icp"
+  std::string type = "icp";  ///< "icp", "obmnet", "obmnet+icp" or "obmm+icp"
   IcpParams icp;
   ObmNetMatcherParams obmnet;  ///< only for the OBMNet types
   ConfidenceParams confidence;

@@ -24,8 +24,12 @@ struct IcpOutcome {
 };
 
 /// Runs ICP of `source_points` (source frame, finite) onto `target` from `T_target_source_init`.
+/// `point_weights` (optional, one ≥ 0 per source point) scale each point's robust residual: e.g.
+/// the Overlap Bias Matching Module's ω_i = w_i·(1 + α·m_i), so that the points predicted
+/// outside the overlap pull less. Throws ContractError when the sizes differ.
 IcpOutcome runIcp(const std::vector<Vector3f>& source_points, const PreparedTarget& target,
-                  const Isometry3d& T_target_source_init, const IcpParams& params);
+                  const Isometry3d& T_target_source_init, const IcpParams& params,
+                  const std::vector<double>* point_weights = nullptr);
 
 /// ICP from the initial guess alone, with the confidence of the solution.
 class IcpMatcher : public ScanMatcher {

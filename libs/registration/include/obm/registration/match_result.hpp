@@ -43,6 +43,15 @@ struct MatchResult {
   /// ConfidenceParams::inlier_threshold. [0, 1]
   double inlier_ratio = 0.0;
   double rmse = 0.0;   ///< [m] RMS residual of the correspondences at the solution (unweighted)
+  /// Fraction of (down-sampled) source points with a target partner within the fine gate at the
+  /// solution: ICP's own fitness score (Open3D's `fitness`). [0, 1]
+  double fitness = 0.0;
+  /// OBMNet matchers: the bias-weighted confidence of the pair, Σ ω_i·[r_i ≤ inlier_threshold] /
+  /// Σ ω_i over the network's sampled source points at the solution, with the network's SVD
+  /// weights ω_i = w_i·(1 + α·m_i) (inlier weight, bias α, overlap membership). It trusts the
+  /// points the network placed in the overlap: a pose that pairs only the points it called
+  /// outliers scores low. −1 when no network was involved. [0, 1]
+  double network_confidence = -1.0;
   double alpha = 1.0;  ///< OBMNet's bias coefficient α; 1 when no network was involved
   /// Overlap estimate in [0, 1]: the network's for the OBMNet matchers, else the fraction of
   /// source points with a correspondence.

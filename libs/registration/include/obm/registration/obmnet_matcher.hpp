@@ -40,6 +40,9 @@ struct ObmNetMatcherParams {
   /// keeps the one pairing more points (partial_noise: 54.0 → 62.0 % recall, docs/registration.md).
   double overlap_stage_keep = 0.0;
   double overlap_stage_gate_factor = 2.0;  ///< start gate of the overlap stage / fine gate
+  /// Yaw hypotheses of the network stage (ObmNetRegistrar::Options::yaw_hypotheses): 0 = the
+  /// model's default (4 for a planar LiDAR model, else 1), 1 = off.
+  int yaw_hypotheses = 0;
 
   /// Reads the keys of `node` (model_path required; unknown keys rejected). A relative
   /// model_path is resolved against the folder of the YAML file.
@@ -84,6 +87,48 @@ class ObmNetIcpMatcher : public ScanMatcher {
  protected:
   MatchResult impl_match(const PointCloud& source, const PreparedTarget& target,
                          const Isometry3d& T_target_source_init) const override;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// The Overlap Bias Matching Module as a plug-in for ICP (`obmm+icp`): the network runs only to
+/// predict which source points lie in the overlap and how much to trust them, ω_i = w_i·(1 +
+/// α·m_i) (docs/model.md, step 8); its pose is not used. ICP then starts from the caller's guess
+/// (as plain ICP does) with every source point's residual weighted by the ω of its nearest
+/// network point, so that the parts the network places outside the overlap pull less. Compare
+/// with `icp` on the same pairs to see what the module alone adds.
+class ObmmIcpMatcher : public ScanMatcher {
+ public:
+  ObmmIcpMatcher(const ObmNetMatcherParams& params, const IcpParams& icp = IcpParams(),
+                 const ConfidenceParams& confidence = ConfidenceParams());
+  ~ObmmIcpMatcher() override;
+  std::string name() const override { return "obmm+icp"; }
+  bool global() const override { return false; }
+
+ protected:
+  MatchResult impl_match(const PointCloud& source, const PreparedTarget& target,
+                         const Isometry3d& T_target_source_init) const override;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// The module's overlap prediction for a pair, for plug-ins outside this library (e.g. feature
+/// matching restricted to the overlap): the network's SVD weights ω_i of its sampled source
+/// points, and the same for the target (the pair swapped). Throws ConfigError without LibTorch.
+struct OverlapPrediction {
+  std::vector<Vector3f> source_points, target_points;  ///< sampled points, input frames
+  std::vector<double> source_weights, target_weights;  ///< ω_i ≥ 0, one per point
+  double alpha = 1.0;
+};
+class OverlapPredictor {
+ public:
+  explicit OverlapPredictor(const ObmNetMatcherParams& params);
+  ~OverlapPredictor();
+  OverlapPrediction predict(const PointCloud& source, const PointCloud& target) const;
 
  private:
   struct Impl;

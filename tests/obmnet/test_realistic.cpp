@@ -1,0 +1,310 @@
+// The pieces for pairs that share no sample: the `resampled` object protocol, voxel keypoints,
+// the 4-DoF (yaw) Procrustes, the nearest-neighbour form of L_n, and the registrar's yaw
+// hypotheses.
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "obm/core/errors.hpp"
+#include "obm/core/cloud_ops.hpp"
+#include "obm/core/mesh.hpp"
+#include "obm/obmnet/data.hpp"
+#include "obm/obmnet/losses.hpp"
+#include "obm/obmnet/model.hpp"
+#include "obm/obmnet/model_io.hpp"
+#include "obm/obmnet/registrar.hpp"
+#include "obm/obmnet/svd.hpp"
+#include "obm/obmnet/trainer.hpp"
+#include "test_data.hpp"
+
+using namespace obm;
+using namespace obm::obmnet;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+/// n i.i.d. points uniform on the unit sphere: an "object" whose surface samples are independent.
+PointCloud sphereSamples(std::size_t n, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<float> G(0.f, 1.f);
+  PointCloud c;
+  for (std::size_t i = 0; i < n; ++i) c.points.push_back(Vector3f(G(rng), G(rng), G(rng)).normalized());
+  c.frame_id = "sphere";
+  return c;
+}
+
+/// n i.i.d. points on a street-like scene: a ground plane and two walls, 40 × 20 m.
+PointCloud streetSamples(std::size_t n, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<float> U(0.f, 1.f);
+  PointCloud c;
+  for (std::size_t i = 0; i < n; ++i) {
+    const float u = U(rng), a = -20.f + 40.f * U(rng), b = U(rng);
+    if (u < 0.4f) c.points.emplace_back(a, -8.f + 16.f * b, 0.f);
+    else if (u < 0.7f) c.points.emplace_back(a, -8.f, 6.f * b);
+    else c.points.emplace_back(a + 0.3f * std::sin(a), 8.f, 6.f * b);
+  }
+  return c;
+}
+
+/// Mean distance from each point of `a` to its nearest point of `b` (brute force).
+double meanNearest(const PointCloud& a, const PointCloud& b) {
+  double s = 0;
+  for (const auto& p : a.points) {
+    float best = 1e30f;
+    for (const auto& q : b.points) best = std::min(best, (p - q).squaredNorm());
+    s += std::sqrt(best);
+  }
+  return s / static_cast<double>(a.size());
+}
+
+}  // namespace
+
+TEST(ResampledProtocol, DisjointIndependentSamplingsCroppedAndMoved) {
+  const PointCloud object = sphereSamples(2048, 1);
+  PairProtocol p = PairProtocol::preset("resampled");
+  p.jitter_sigma = 0.0;  // exact points, to check that none is shared
+  std::mt19937_64 rng(5);
+  const RegistrationPair pair = makePair(object, p, rng);
+  ASSERT_EQ(pair.source.size(), 768u);
+  ASSERT_EQ(pair.target.size(), 768u);
+  // Bring the target back: no target point may coincide with a source point (disjoint halves).
+  const PointCloud back = pair.target.transformed(pair.T_target_source.inverse(), "source");
+  std::size_t shared = 0;
+  for (const auto& q : back.points)
+    for (const auto& s : pair.source.points) shared += (q - s).norm() < 1e-6f ? 1 : 0;
+  EXPECT_EQ(shared, 0u);
+  // Each crop is a cap of the sphere around its own far point: the overlap is a fraction, and
+  // the source points it counts really lie near target points.
+  EXPECT_GT(pair.overlap, 0.0);
+  EXPECT_LT(pair.overlap, 1.0);
+  // The pose is RIENet's: angles within 45°, translation within 0.5 per axis.
+  const double angle = Eigen::AngleAxisd(pair.T_target_source.linear()).angle() * 180.0 / kPi;
+  EXPECT_LE(angle, 45.0 * std::sqrt(3.0) + 1e-9);
+  EXPECT_LE(pair.T_target_source.translation().cwiseAbs().maxCoeff(), 0.5);
+}
+
+TEST(ResampledProtocol, NeedsTwiceTheSamplesAndNamesTheObject) {
+  PointCloud object = sphereSamples(1024, 2);
+  object.frame_id = "elephant";
+  std::mt19937_64 rng(1);
+  try {
+    makePair(object, PairProtocol::preset("resampled"), rng);
+    FAIL() << "expected ContractError";
+  } catch (const ContractError& e) {
+    EXPECT_NE(std::string(e.what()).find("elephant"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("keep_points"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ResampledProtocol, JitterIsTheProtocolsAndSeedsRepeat) {
+  const PointCloud object = sphereSamples(2048, 3);
+  std::mt19937_64 a(9), b(9);
+  const auto pa = makePair(object, PairProtocol::preset("resampled"), a);
+  const auto pb = makePair(object, PairProtocol::preset("resampled"), b);
+  ASSERT_EQ(pa.source.size(), pb.source.size());
+  for (std::size_t i = 0; i < pa.source.size(); ++i)
+    EXPECT_EQ(pa.source.points[i], pb.source.points[i]);
+  // σ = 0.005 moves the unit-sphere samples off the sphere by about that much.
+  double r = 0;
+  for (const auto& q : pa.source.points) r += std::abs(q.norm() - 1.0f);
+  r /= static_cast<double>(pa.source.size());
+  EXPECT_GT(r, 0.001);
+  EXPECT_LT(r, 0.01);
+}
+
+TEST(VoxelKeypoints, CountIndicesAndDeterminism) {
+  const PointCloud scan = streetSamples(20000, 4);
+  std::mt19937_64 r1(3), r2(3);
+  std::vector<std::size_t> idx;
+  const PointCloud k1 = voxelKeypoints(scan, 512, r1, &idx);
+  const PointCloud k2 = voxelKeypoints(scan, 512, r2);
+  ASSERT_EQ(k1.size(), 512u);
+  ASSERT_EQ(idx.size(), 512u);
+  for (std::size_t i = 0; i < k1.size(); ++i) {
+    EXPECT_EQ(k1.points[i], k2.points[i]);
+    ASSERT_LT(idx[i], scan.size());
+    // The representative input point lies in the keypoint's cell: close to the centroid.
+    EXPECT_LT((scan.points[idx[i]] - k1.points[i]).norm(), 3.0f);
+  }
+  // A cloud smaller than n comes back whole.
+  std::mt19937_64 r3(1);
+  EXPECT_EQ(voxelKeypoints(streetSamples(100, 1), 512, r3).size(), 100u);
+}
+
+TEST(VoxelKeypoints, TwoSamplingsOfOnePlaceGiveCloserPointsThanRandomSubsets) {
+  // Two independent scans of the same street (no shared sample), 1024 points from each.
+  const PointCloud a = streetSamples(30000, 10), b = streetSamples(30000, 11);
+  std::mt19937_64 rng(2);
+  const double voxel = meanNearest(voxelKeypoints(a, 1024, rng), voxelKeypoints(b, 1024, rng));
+  const double random = meanNearest(randomSubset(a, 1024, rng), randomSubset(b, 1024, rng));
+  // Cell centroids of the same cells nearly coincide; random subsets are a spacing apart.
+  EXPECT_LT(voxel, 0.6 * random) << "voxel " << voxel << " m, random " << random << " m";
+}
+
+TEST(WeightedSvd, YawSolveExactOnPlanarMotionAndFlatOtherwise) {
+  torch::manual_seed(21);
+  const int64_t B = 2, N = 60;
+  const auto x = torch::randn({B, 3, N}, torch::kFloat64);
+  const double yaw[2] = {0.3, -2.5};
+  auto R = torch::zeros({B, 3, 3}, torch::kFloat64);
+  for (int b = 0; b < B; ++b) {
+    R[b][0][0] = std::cos(yaw[b]);
+    R[b][0][1] = -std::sin(yaw[b]);
+    R[b][1][0] = std::sin(yaw[b]);
+    R[b][1][1] = std::cos(yaw[b]);
+    R[b][2][2] = 1.0;
+  }
+  const auto t = torch::randn({B, 3}, torch::kFloat64);
+  const auto y = torch::bmm(R, x) + t.unsqueeze(2);
+  const auto w = torch::rand({B, N}, torch::kFloat64) + 0.1;
+  const auto T = weightedProcrustesYaw(x, y, w);
+  EXPECT_TRUE(torch::allclose(T.R, R, 1e-9, 1e-9));
+  EXPECT_TRUE(torch::allclose(T.t, t, 1e-9, 1e-9));
+  // The 6-DoF solve agrees on planar motion.
+  const auto T6 = weightedProcrustes(x, y, w);
+  EXPECT_TRUE(torch::allclose(T6.R, R, 1e-8, 1e-8));
+  // With a roll in the data, the yaw solve still returns a rotation about z only.
+  auto y_roll = y.clone();
+  y_roll.select(1, 2).add_(0.2 * y.select(1, 1));
+  const auto Tr = weightedProcrustesYaw(x, y_roll, w);
+  EXPECT_NEAR(Tr.R[0][2][2].item<double>(), 1.0, 1e-12);
+  EXPECT_NEAR(Tr.R[0][0][2].item<double>(), 0.0, 1e-12);
+  // Gradient flows to the weights and the targets.
+  auto wg = w.clone().requires_grad_(true);
+  auto yg = y.clone().requires_grad_(true);
+  const auto Tg = weightedProcrustesYaw(x, yg, wg);
+  (Tg.R.sum() + Tg.t.sum()).backward();
+  EXPECT_TRUE(wg.grad().defined());
+  EXPECT_TRUE(yg.grad().abs().sum().item<double>() > 0.0);
+}
+
+TEST(Losses, NearestNeighbourhoodFormHasNoFloorOnIndependentSamplings) {
+  // Two independent samplings of the unit sphere (no shared sample), the target moved.
+  torch::manual_seed(12);
+  const int64_t N = 768, K = 64, k = 16;
+  auto toTensor = [](const PointCloud& c) {
+    auto t = torch::empty({1, 3, static_cast<int64_t>(c.size())});
+    for (std::size_t i = 0; i < c.size(); ++i)
+      for (int d = 0; d < 3; ++d) t[0][d][static_cast<int64_t>(i)] = c.points[i][d];
+    return t;
+  };
+  const auto src = toTensor(sphereSamples(N, 30));
+  const auto base = toTensor(sphereSamples(N, 31));
+  const double yaw = 0.4;
+  auto R = torch::eye(3).unsqueeze(0).clone();
+  R[0][0][0] = std::cos(yaw);
+  R[0][0][1] = -std::sin(yaw);
+  R[0][1][0] = std::sin(yaw);
+  R[0][1][1] = std::cos(yaw);
+  const auto t = torch::tensor({{0.2f, -0.1f, 0.05f}});
+  const auto tgt = torch::bmm(R, base) + t.unsqueeze(2);
+  // Pseudo-targets: the true image of each source point (what a perfect matching would give).
+  const auto pseudo = torch::bmm(R, src) + t.unsqueeze(2);
+  const auto kp = torch::arange(K, torch::kInt64).unsqueeze(0);
+  const RigidTransforms T_true{R, t};
+  // 0.1 off the true translation (a tenth of the radius, about twice the sampling spacing).
+  const auto t_off = t + torch::tensor({{0.0577f, 0.0577f, 0.0577f}});
+  const RigidTransforms T_wrong{R, t_off};
+  const double rank_true = neighborhoodLoss(src, tgt, pseudo, T_true, kp, k, false).item<double>();
+  const double near_true = neighborhoodLoss(src, tgt, pseudo, T_true, kp, k, true).item<double>();
+  const double near_wrong = neighborhoodLoss(src, tgt, pseudo, T_wrong, kp, k, true).item<double>();
+  // Rank pairing leaves a floor of about a sampling spacing at the true pose; the nearest form
+  // is well below it, and it still grows away from the truth.
+  EXPECT_LT(near_true, 0.6 * rank_true) << near_true << " vs rank " << rank_true;
+  EXPECT_GT(near_wrong, near_true * 1.2);
+}
+
+TEST(Registrar, YawHypothesesAreSearchedInOneBatchAndTheBestFitIsKept) {
+  // An untrained planar network: what is checked is the search. Four hypotheses are tried (the
+  // default for a planar model), the returned one is one of them, its fitness is at least that of
+  // the single pass (which is hypothesis 0 of the four), and the pose has no roll or pitch.
+  const std::string path = test::scratchDir("registrar_yaw") + "/planar.pt";
+  ObmNetConfig c;
+  c.emb_dims = 16;
+  c.n_samples = 4;
+  c.n_iters = 1;
+  c.planar = true;
+  c.voxel_keypoints = true;
+  torch::manual_seed(1);
+  ObmNet net(c);
+  ModelMeta meta;
+  meta.num_points = 256;
+  meta.description = "unit test";
+  saveModel(path, net, meta);
+  // An L-shaped corner seen from a car turned by 180°.
+  PointCloud scene;
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<float> U(0.f, 1.f);
+  for (int i = 0; i < 4000; ++i) {
+    const float a = U(rng), b = U(rng);
+    if (i % 3 == 0) scene.points.emplace_back(30.f * a, 0.f, 5.f * b);
+    else if (i % 3 == 1) scene.points.emplace_back(0.f, 12.f * a, 5.f * b);
+    else scene.points.emplace_back(30.f * a, 12.f * b, 0.f);
+  }
+  Isometry3d T_true = Isometry3d::Identity();
+  T_true.linear() = Eigen::AngleAxisd(kPi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T_true.translation() = Eigen::Vector3d(3.0, -2.0, 0.0);
+  const PointCloud source = scene.transformed(T_true.inverse(), "source");
+  ObmNetRegistrar::Options o;
+  o.model_path = path;
+  o.threads = 1;
+  const auto r4 = ObmNetRegistrar(o).align(source, scene);
+  o.yaw_hypotheses = 1;
+  const auto r1 = ObmNetRegistrar(o).align(source, scene);
+  const double h = r4.hypothesis_yaw_deg;
+  EXPECT_TRUE(h == 0.0 || h == 90.0 || h == 180.0 || h == 270.0) << h;
+  EXPECT_DOUBLE_EQ(r1.hypothesis_yaw_deg, 0.0);
+  EXPECT_GE(r4.fitness, r1.fitness);
+  EXPECT_GT(r4.fitness, 0.0);
+  EXPECT_LE(r4.fitness, 1.0);
+  EXPECT_NEAR(r4.T_target_source.linear()(2, 2), 1.0, 1e-6);
+  EXPECT_NEAR(r1.T_target_source.linear()(2, 2), 1.0, 1e-6);
+}
+
+TEST(Trainer, OverfitOneBatchLowersTheRotationError) {
+  // The learning signal: a fresh small network fitted to one fixed batch of clean pairs (the
+  // clouds share their samples) must bring its rotation error well down. A broken gradient path
+  // (a detached weight, a sign error in a loss) leaves it where it started.
+  const std::string dir = test::scratchDir("obmnet_overfit");
+  ObmNetConfig mc;
+  mc.emb_dims = 32;
+  mc.dim = 4;
+  mc.k1 = 8;
+  mc.k2 = 4;
+  mc.n_keypoints = 32;
+  mc.n_samples = 8;
+  mc.n_iters = 2;
+  TrainConfig tc;
+  tc.model = mc;
+  tc.protocol.num_points = 96;
+  tc.protocol.max_angle_deg = 45.0;
+  tc.val_protocol = tc.protocol;
+  tc.val_pairs = 1;
+  tc.batch_size = 4;
+  tc.lr = 1e-3;
+  tc.threads = 1;
+  // Anisotropic blobs: a rotation of them is well defined.
+  std::vector<PointCloud> clouds;
+  for (int o = 0; o < 4; ++o) {
+    std::mt19937_64 rng(40 + static_cast<std::uint64_t>(o));
+    std::normal_distribution<float> G(0.f, 1.f);
+    PointCloud c;
+    for (int i = 0; i < 200; ++i)
+      c.points.emplace_back(0.8f * G(rng), 0.45f * G(rng) + 0.2f * std::sin(3.0f * i), 0.2f * G(rng));
+    clouds.push_back(c);
+  }
+  Trainer trainer(tc, clouds, clouds, dir);
+  const auto rows = trainer.overfitOneBatch(30, 10, 1);
+  ASSERT_GE(rows.size(), 3u);
+  const double first = rows.front()[2];
+  double last_train = rows.front()[2];
+  for (std::size_t i = 0; i + 1 < rows.size(); ++i) last_train = rows[i][2];
+  for (const auto& r : rows) std::printf("overfit step %.0f loss %.4f error %.3f deg\n", r[0], r[1], r[2]);
+  EXPECT_GT(first, 3.0) << "the untrained network should be off";
+  EXPECT_LT(last_train, 0.5 * first) << "start " << first << "°, after 30 steps " << last_train << "°";
+}
