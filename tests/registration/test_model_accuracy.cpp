@@ -1,0 +1,166 @@
+// The shipped models judged on pairs of their own kind that share no sample, with the network's
+// own pose checked as well as the pose after ICP. A model that stops registering its data fails
+// here. The pairs are few so that the test stays fast.
+//  - objects (obmnet_objects_resampled.pt): resampled pairs of the unseen CGAL objects;
+//  - LiDAR (obmnet_lidar_pairs.pt): the real outdoor scan pair of the shared data;
+//  - indoor (obmnet_indoor.pt): pairs of different real RGB-D frames (Open3D's five).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "obm/core/cloud_ops.hpp"
+#include "obm/io/mesh_io.hpp"
+#include "obm/io/point_cloud_io.hpp"
+#include "obm/io/rgbd.hpp"
+#include "obm/obmnet/data.hpp"
+#include "obm/obmnet/object_set.hpp"
+#include "obm/obmnet/registrar.hpp"
+#include "obm/registration/obmnet_matcher.hpp"
+#include "test_data.hpp"
+
+namespace obm {
+namespace {
+
+const std::string kModels = std::string(OBM_SOURCE_DIR) + "/share/obmslam/models/";
+constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
+
+double rreDeg(const Isometry3d& T, const Isometry3d& gt) {
+  return Eigen::AngleAxisd(T.linear().transpose() * gt.linear()).angle() * kDegPerRad;
+}
+double rte(const Isometry3d& T, const Isometry3d& gt) {
+  return (T.translation() - gt.translation()).norm();
+}
+
+Isometry3d readMatrix4(const std::string& path) {
+  std::ifstream in(path);
+  Eigen::Matrix4d M;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) in >> M(r, c);
+  EXPECT_TRUE(in.good() || in.eof()) << path;
+  Isometry3d T;
+  T.matrix() = M;
+  return T;
+}
+
+ObmNetMatcherParams netParams(const std::string& model) {
+  ObmNetMatcherParams p;
+  p.model_path = model;
+  p.threads = 1;
+  p.pre_align = false;
+  p.keep_init_if_better = false;
+  return p;
+}
+
+}  // namespace
+
+TEST(ModelAccuracy, ObjectModelOnIndependentSamplingsOfUnseenObjects) {
+  const char* env = std::getenv("OBM_CGAL_DATA");
+  if (env == nullptr) {
+    if (test::inCI()) FAIL() << "OBM_CGAL_DATA not set in CI (scripts/test.sh fetches the meshes)";
+    GTEST_SKIP() << "OBM_CGAL_DATA not set (scripts/get_cgal_meshes.sh)";
+  }
+  std::vector<TriangleMesh> meshes;
+  for (const auto& e : std::filesystem::directory_iterator(env))
+    if (e.path().extension() == ".off") {
+      meshes.push_back(io::readMesh(e.path().string()));
+      meshes.back().name = e.path().stem().string();
+    }
+  std::sort(meshes.begin(), meshes.end(),
+            [](const TriangleMesh& a, const TriangleMesh& b) { return a.name < b.name; });
+  obmnet::ObjectSetOptions o;
+  o.keep_points = 2048;  // every sample: the pairs are disjoint halves
+  const auto set = obmnet::buildObjectSet(meshes, o);
+  ASSERT_GE(set.test.size(), 8u);
+  const auto proto = obmnet::PairProtocol::preset("resampled");
+  std::mt19937_64 rng(1);
+  ObmNetRegistrar::Options ro;
+  ro.model_path = kModels + "obmnet_objects_resampled.pt";
+  ro.threads = 1;
+  ro.num_points = 768;
+  const ObmNetRegistrar net(ro);
+  std::vector<double> net_rre, identity_rre;
+  for (int i = 0; i < 8; ++i) {
+    const auto pair = obmnet::makePair(set.test[static_cast<std::size_t>(i)], proto, rng);
+    const auto r = net.align(pair.source, pair.target);
+    net_rre.push_back(rreDeg(r.T_target_source, pair.T_target_source));
+    identity_rre.push_back(rreDeg(Isometry3d::Identity(), pair.T_target_source));
+    std::printf("%s: network RRE %.2f deg, RTE %.3f\n", set.test[static_cast<std::size_t>(i)].frame_id.c_str(),
+                net_rre.back(), rte(r.T_target_source, pair.T_target_source));
+  }
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+  };
+  // Measured with the shipped model: median 29.6° against the identity's (the pairs' own
+  // rotation) — far from the ≤ 2° the model is meant to reach (its model card), but a model that
+  // learnt nothing on independent samplings stays at the identity or worse (the shared-sample
+  // model obmnet_objects.pt: MIE(R) 124° on these pairs).
+  EXPECT_LT(median(net_rre), 0.85 * median(identity_rre))
+      << "median network RRE " << median(net_rre) << "°, identity " << median(identity_rre) << "°";
+}
+
+TEST(ModelAccuracy, LidarModelOnTheRealOutdoorPair) {
+  OBM_REQUIRE_SHARED_DATA("real_pairs/lidar_small_gicp/T_target_source.txt");
+  const std::string d = test::sharedDataDir() + "/real_pairs/lidar_small_gicp/";
+  const Isometry3d gt = readMatrix4(d + "T_target_source.txt");
+  const PointCloud source = voxelDownsample(cropRange(io::readPointCloud(d + "source.ply"), 2.0, 50.0), 0.3);
+  const PointCloud target = voxelDownsample(cropRange(io::readPointCloud(d + "target.ply"), 2.0, 50.0), 0.3);
+  IcpParams icp;
+  icp.max_correspondence_distance = 1.0;
+  icp.initial_max_correspondence_distance = 1.0;
+  icp.kernel_scale = 0.2;
+  ConfidenceParams conf;
+  conf.inlier_threshold = 0.3;
+  const ObmNetMatcher network(netParams(kModels + "obmnet_lidar_pairs.pt"), icp, conf);
+  const ObmNetIcpMatcher refined(netParams(kModels + "obmnet_lidar_pairs.pt"), icp, conf);
+  // Both sweeps turned apart by 120° about z: the identity is no prior any more.
+  Isometry3d turn = Isometry3d::Identity();
+  turn.linear() = Eigen::AngleAxisd(120.0 / kDegPerRad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const PointCloud turned = source.transformed(turn, "source_turned");
+  const Isometry3d gt_turned = gt * turn.inverse();
+  for (const auto& [cloud, truth] :
+       {std::pair<const PointCloud*, Isometry3d>{&source, gt}, {&turned, gt_turned}}) {
+    const MatchResult a = network.match(*cloud, target);
+    const MatchResult b = refined.match(*cloud, target);
+    std::printf("network RRE %.2f deg RTE %.2f m; +ICP RRE %.3f deg RTE %.3f m; identity RRE %.1f deg RTE %.2f m\n",
+                rreDeg(a.T_target_source, truth), rte(a.T_target_source, truth),
+                rreDeg(b.T_target_source, truth), rte(b.T_target_source, truth),
+                rreDeg(Isometry3d::Identity(), truth), rte(Isometry3d::Identity(), truth));
+    EXPECT_LT(rreDeg(a.T_target_source, truth), 10.0);
+    EXPECT_LT(rte(a.T_target_source, truth), 2.0);
+    EXPECT_LT(rreDeg(b.T_target_source, truth), 1.0);
+    EXPECT_LT(rte(b.T_target_source, truth), 0.3);
+  }
+}
+
+TEST(ModelAccuracy, IndoorModelOnPairsOfRealRgbdFrames) {
+  OBM_REQUIRE_SHARED_DATA("rgbd_open3d/trajectory.log");
+  const auto seq = io::RgbdSequence::openRedwood(test::sharedDataDir() + "/rgbd_open3d");
+  ASSERT_GE(seq.size(), 5u);
+  IcpParams icp;
+  icp.max_correspondence_distance = 0.05;
+  icp.initial_max_correspondence_distance = 0.05;
+  icp.kernel_scale = 0.01;
+  ConfidenceParams conf;
+  conf.inlier_threshold = 0.02;
+  const ObmNetIcpMatcher refined(netParams(kModels + "obmnet_indoor.pt"), icp, conf);
+  int ok = 0, n = 0;
+  for (std::size_t i = 0; i < seq.size(); ++i)
+    for (std::size_t j = i + 1; j < seq.size(); ++j) {
+      const PointCloud s = voxelDownsample(seq.cloud(j, 0.3, 4.0, 2), 0.01);
+      const PointCloud t = voxelDownsample(seq.cloud(i, 0.3, 4.0, 2), 0.01);
+      const Isometry3d truth = seq.frame(i).T_world_camera.inverse() * seq.frame(j).T_world_camera;
+      const MatchResult r = refined.match(s, t);
+      const double e_r = rreDeg(r.T_target_source, truth), e_t = rte(r.T_target_source, truth);
+      std::printf("frames %zu->%zu: +ICP RRE %.2f deg RTE %.3f m\n", j, i, e_r, e_t);
+      ok += (e_r < 5.0 && e_t < 0.1) ? 1 : 0;
+      ++n;
+    }
+  EXPECT_GE(ok, 8) << ok << " of " << n << " real frame pairs within 5° and 0.1 m";
+}
+
+}  // namespace obm
