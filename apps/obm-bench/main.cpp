@@ -278,6 +278,7 @@ int main(int argc, char** argv) {
     if (model.empty())
       model = apps::findShareFile(protocol == "kitti"         ? "models/obmnet_lidar.pt"
                                   : protocol == "rgbd_frames" ? "models/obmnet_indoor.pt"
+                                  : protocol == "resampled"   ? "models/obmnet_objects_resampled.pt"
                                                               : "models/obmnet_objects.pt");
     std::vector<obmnet::RegistrationPair> pairs;
     std::string info;
