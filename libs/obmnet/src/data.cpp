@@ -166,6 +166,30 @@ void addOutliers(PointCloud& c, int n, std::mt19937_64& rng) {
   c.colors.clear();
 }
 
+/// The steps every generated pair ends with: the target moved by the pair's pose, both clouds
+/// jittered and given outliers as the protocol asks, and named.
+RegistrationPair finishPair(PointCloud src, PointCloud tgt, RegistrationPair pair,
+                            const PairProtocol& protocol, std::mt19937_64& rng) {
+  tgt.transform(pair.T_target_source);
+  if (protocol.jitter_sigma > 0.0) {
+    double f = 1.0;
+    if (protocol.jitter_uniform) f = std::uniform_real_distribution<double>(0.0, 1.0)(rng);
+    if (f > 0.0) {
+      jitter(src, f * protocol.jitter_sigma, f * protocol.jitter_clip, rng);
+      jitter(tgt, f * protocol.jitter_sigma, f * protocol.jitter_clip, rng);
+    }
+  }
+  if (protocol.outliers > 0) {
+    addOutliers(src, protocol.outliers, rng);
+    addOutliers(tgt, protocol.outliers, rng);
+  }
+  src.frame_id = "source";
+  tgt.frame_id = "target";
+  pair.source = std::move(src);
+  pair.target = std::move(tgt);
+  return pair;
+}
+
 /// The `resample` protocol: two disjoint random halves of the object's i.i.d. surface samples,
 /// each cropped around its own far point, the target moved, both jittered.
 RegistrationPair makeResampledPair(const PointCloud& cloud, const PairProtocol& protocol,
@@ -200,24 +224,7 @@ RegistrationPair makeResampledPair(const PointCloud& cloud, const PairProtocol& 
       inside += (p - region_t.first).norm() <= region_t.second ? 1 : 0;
     pair.overlap = static_cast<double>(inside) / static_cast<double>(src.size());
   }
-  tgt.transform(pair.T_target_source);
-  if (protocol.jitter_sigma > 0.0) {
-    double f = 1.0;
-    if (protocol.jitter_uniform) f = std::uniform_real_distribution<double>(0.0, 1.0)(rng);
-    if (f > 0.0) {
-      jitter(src, f * protocol.jitter_sigma, f * protocol.jitter_clip, rng);
-      jitter(tgt, f * protocol.jitter_sigma, f * protocol.jitter_clip, rng);
-    }
-  }
-  if (protocol.outliers > 0) {
-    addOutliers(src, protocol.outliers, rng);
-    addOutliers(tgt, protocol.outliers, rng);
-  }
-  src.frame_id = "source";
-  tgt.frame_id = "target";
-  pair.source = std::move(src);
-  pair.target = std::move(tgt);
-  return pair;
+  return finishPair(std::move(src), std::move(tgt), std::move(pair), protocol, rng);
 }
 
 }  // namespace
@@ -235,10 +242,8 @@ RegistrationPair makePair(const PointCloud& cloud, const PairProtocol& protocol,
           ? randomAxisAngleTransform(rng, protocol.max_angle_deg, protocol.max_translation)
           : randomRienetTransform(rng, protocol.max_angle_deg, protocol.max_translation);
 
+  if (protocol.resample) return makeResampledPair(cloud, protocol, pair.T_target_source, rng);
   PointCloud src = base, tgt = base;
-  if (protocol.resample) {
-    return makeResampledPair(cloud, protocol, pair.T_target_source, rng);
-  }
   if (protocol.partial_keep > 0 && protocol.partial_keep < static_cast<int>(base.size())) {
     const auto is = cropNearFarPoint(base, protocol.partial_keep, protocol.partial_far, rng);
     const auto it = cropNearFarPoint(base, protocol.partial_keep, protocol.partial_far, rng);
@@ -251,24 +256,7 @@ RegistrationPair makePair(const PointCloud& cloud, const PairProtocol& protocol,
   }
   src = randomSubset(src, src.size(), rng);
   tgt = randomSubset(tgt, tgt.size(), rng);
-  tgt.transform(pair.T_target_source);
-  if (protocol.jitter_sigma > 0.0) {
-    double f = 1.0;
-    if (protocol.jitter_uniform) f = std::uniform_real_distribution<double>(0.0, 1.0)(rng);
-    if (f > 0.0) {
-      jitter(src, f * protocol.jitter_sigma, f * protocol.jitter_clip, rng);
-      jitter(tgt, f * protocol.jitter_sigma, f * protocol.jitter_clip, rng);
-    }
-  }
-  if (protocol.outliers > 0) {
-    addOutliers(src, protocol.outliers, rng);
-    addOutliers(tgt, protocol.outliers, rng);
-  }
-  src.frame_id = "source";
-  tgt.frame_id = "target";
-  pair.source = std::move(src);
-  pair.target = std::move(tgt);
-  return pair;
+  return finishPair(std::move(src), std::move(tgt), std::move(pair), protocol, rng);
 }
 
 namespace {

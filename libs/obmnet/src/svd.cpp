@@ -4,6 +4,18 @@
 
 namespace obm::obmnet {
 
+namespace {
+/// Non-negative weights (double) that sum to 1 per row. Rows whose weights all vanished fall back
+/// to uniform weights (a plain Procrustes) instead of a zero H, whose solve would silently return
+/// the identity.
+torch::Tensor normalizedWeights(const torch::Tensor& weights, double eps) {
+  auto w = weights.to(torch::kFloat64).clamp_min(0.0);
+  const auto total = w.sum(1, /*keepdim=*/true);
+  w = torch::where(total > eps, w, torch::ones_like(w));
+  return w / w.sum(1, /*keepdim=*/true);
+}
+}  // namespace
+
 RigidTransforms weightedProcrustes(const torch::Tensor& src, const torch::Tensor& tgt,
                                    const torch::Tensor& weights, double eps) {
   OBM_ASSERT(src.dim() == 3 && src.size(1) == 3 && src.sizes() == tgt.sizes(),
@@ -15,12 +27,7 @@ RigidTransforms weightedProcrustes(const torch::Tensor& src, const torch::Tensor
   // (and its backward pass) is far better conditioned.
   const auto x = src.to(torch::kFloat64);
   const auto y = tgt.to(torch::kFloat64);
-  auto w = weights.to(torch::kFloat64).clamp_min(0.0);
-  // Rows whose weights all vanished fall back to uniform weights (a plain Procrustes) instead of a
-  // zero H, whose SVD would silently return the identity.
-  const auto total = w.sum(1, /*keepdim=*/true);
-  w = torch::where(total > eps, w, torch::ones_like(w));
-  w = w / w.sum(1, /*keepdim=*/true);
+  const auto w = normalizedWeights(weights, eps);
   const auto wu = w.unsqueeze(1);      // B×1×N
   const auto x_bar = (x * wu).sum(2);  // B×3 weighted centroids
   const auto y_bar = (y * wu).sum(2);
@@ -48,10 +55,7 @@ RigidTransforms weightedProcrustesYaw(const torch::Tensor& src, const torch::Ten
   const auto dtype = src.scalar_type();
   const auto x = src.to(torch::kFloat64);
   const auto y = tgt.to(torch::kFloat64);
-  auto w = weights.to(torch::kFloat64).clamp_min(0.0);
-  const auto total = w.sum(1, /*keepdim=*/true);
-  w = torch::where(total > eps, w, torch::ones_like(w));
-  w = w / w.sum(1, /*keepdim=*/true);
+  const auto w = normalizedWeights(weights, eps);
   const auto wu = w.unsqueeze(1);
   const auto x_bar = (x * wu).sum(2);  // B×3
   const auto y_bar = (y * wu).sum(2);

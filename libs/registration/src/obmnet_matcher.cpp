@@ -108,6 +108,37 @@ double biasWeightedConfidence(const NetworkStage& net, const PreparedTarget& tar
   return den > 0.0 ? num / den : 0.0;
 }
 
+/// The pose, status and iterations of an ICP outcome as a MatchResult.
+MatchResult fromIcp(const IcpOutcome& icp) {
+  MatchResult r;
+  r.T_target_source = icp.T_target_source;
+  r.status = icp.status;
+  r.message = icp.message;
+  r.converged = icp.converged;
+  r.iterations = icp.iterations;
+  r.num_correspondences = icp.num_correspondences;
+  return r;
+}
+
+/// What every OBMNet matcher adds to its pose: the network's α and overlap, then (when the pose
+/// pairs enough points) the confidence, with the information weighted by the network's ω, and
+/// the bias-weighted confidence.
+MatchResult withNetworkConfidence(MatchResult result, const NetworkStage& net,
+                                  const PointCloud& source, const PreparedTarget& target,
+                                  const IcpParams& icp, const ConfidenceParams& confidence) {
+  result.alpha = net.alpha;
+  result.overlap = net.overlap;
+  if (result.status == MatchStatus::TooFewCorrespondences) return result;
+  const AlignmentStats all =
+      evaluateAlignment(source.points, nullptr, target, result.T_target_source, icp, confidence);
+  const AlignmentStats info =
+      evaluateAlignment(net.sampled, &net.prior, target, result.T_target_source, icp, confidence);
+  applyConfidence(result, all, info, false, icp, confidence);
+  result.network_confidence =
+      biasWeightedConfidence(net, target, result.T_target_source, confidence.inlier_threshold);
+  return result;
+}
+
 MatchResult networkFailure(const NetworkStage& s, const Isometry3d& T_init) {
   MatchResult m;
   m.T_target_source = T_init;
@@ -141,16 +172,7 @@ MatchResult ObmNetMatcher::impl_match(const PointCloud& source, const PreparedTa
   MatchResult result;
   result.T_target_source = net.T_target_source;
   result.converged = true;
-  result.alpha = net.alpha;
-  result.overlap = net.overlap;
-  const AlignmentStats all =
-      evaluateAlignment(source.points, nullptr, target, result.T_target_source, icp_, confidence_);
-  const AlignmentStats info =
-      evaluateAlignment(net.sampled, &net.prior, target, result.T_target_source, icp_, confidence_);
-  applyConfidence(result, all, info, false, icp_, confidence_);
-  result.network_confidence = biasWeightedConfidence(net, target, result.T_target_source,
-                                                     confidence_.inlier_threshold);
-  return result;
+  return withNetworkConfidence(std::move(result), net, source, target, icp_, confidence_);
 }
 
 struct ObmNetIcpMatcher::Impl {
@@ -227,24 +249,7 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
          staged.num_correspondences > icp.num_correspondences))
       icp = std::move(staged);
   }
-  MatchResult result;
-  result.T_target_source = icp.T_target_source;
-  result.status = icp.status;
-  result.message = icp.message;
-  result.converged = icp.converged;
-  result.iterations = icp.iterations;
-  result.num_correspondences = icp.num_correspondences;
-  result.alpha = net.alpha;
-  result.overlap = net.overlap;
-  if (icp.status == MatchStatus::TooFewCorrespondences) return result;
-  const AlignmentStats all =
-      evaluateAlignment(source.points, nullptr, target, result.T_target_source, icp_, confidence_);
-  const AlignmentStats info =
-      evaluateAlignment(net.sampled, &net.prior, target, result.T_target_source, icp_, confidence_);
-  applyConfidence(result, all, info, false, icp_, confidence_);
-  result.network_confidence = biasWeightedConfidence(net, target, result.T_target_source,
-                                                     confidence_.inlier_threshold);
-  return result;
+  return withNetworkConfidence(fromIcp(icp), net, source, target, icp_, confidence_);
 }
 
 struct ObmmIcpMatcher::Impl {
@@ -279,24 +284,7 @@ MatchResult ObmmIcpMatcher::impl_match(const PointCloud& source, const PreparedT
   for (std::size_t i = 0; i < source.size(); ++i)
     weights[i] = index.nearest(source.points[i], 1e30, j, d2) ? net.prior[j] / mean_w : 0.0;
   const IcpOutcome icp = runIcp(source.points, target, T_target_source_init, icp_, &weights);
-  MatchResult result;
-  result.T_target_source = icp.T_target_source;
-  result.status = icp.status;
-  result.message = icp.message;
-  result.converged = icp.converged;
-  result.iterations = icp.iterations;
-  result.num_correspondences = icp.num_correspondences;
-  result.alpha = net.alpha;
-  result.overlap = net.overlap;
-  if (icp.status == MatchStatus::TooFewCorrespondences) return result;
-  const AlignmentStats all =
-      evaluateAlignment(source.points, nullptr, target, result.T_target_source, icp_, confidence_);
-  const AlignmentStats info =
-      evaluateAlignment(net.sampled, &net.prior, target, result.T_target_source, icp_, confidence_);
-  applyConfidence(result, all, info, false, icp_, confidence_);
-  result.network_confidence = biasWeightedConfidence(net, target, result.T_target_source,
-                                                     confidence_.inlier_threshold);
-  return result;
+  return withNetworkConfidence(fromIcp(icp), net, source, target, icp_, confidence_);
 }
 
 struct OverlapPredictor::Impl {
