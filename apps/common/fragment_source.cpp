@@ -146,7 +146,7 @@ void addFragments(const std::string& dir, const std::string& entry, const RgbdFr
     PointCloud frag = randomSubset(v, static_cast<std::size_t>(keep_points), rng);
     frag.intensity.clear();
     frag.colors.clear();
-    // RECIPE.md's 7Scenes normalisation: centred, max|v| = radius (a fragment whose points all
+    // RIENet's 7Scenes normalisation: centred, max|v| = radius (a fragment whose points all
     // coincide cannot be scaled and is skipped).
     normalizeToSphere(frag, static_cast<float>(o.radius));
     if (std::all_of(frag.points.begin(), frag.points.end(),

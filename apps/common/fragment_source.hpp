@@ -1,6 +1,6 @@
 #pragma once
 /// \file fragment_source.hpp
-/// Indoor fragments for the object-level tools (obm-train, obm-bench): RECIPE.md's 7Scenes
+/// Indoor fragments for the object-level tools (obm-train, obm-bench): RIENet's 7Scenes
 /// protocol builds its pairs from depth-camera fragments — each fragment centred and scaled so
 /// that max|v| = 0.5, 2048 points, then the pose generator and a crop to 1536 points (the pair
 /// preset `indoor`). A fragment here is `fragment_frames` consecutive depth frames of an RGB-D
@@ -36,7 +36,7 @@ struct RgbdFragmentOptions {
   double min_depth = 0.3;   ///< [m]
   double max_depth = 4.0;   ///< [m] (RGB-D depth is reliable to ~4 m)
   double voxel = 0.01;      ///< [m] voxel grid of the fused fragment, before the random sample
-  double radius = 0.5;      ///< fragments are scaled so that max|v − centroid| = radius (RECIPE.md)
+  double radius = 0.5;      ///< fragments are scaled so that max|v − centroid| = radius (RIENet's 7Scenes protocol)
 
   /// Reads the `rgbd:` map; unknown keys are errors naming the file.
   static RgbdFragmentOptions load(const ConfigNode& node);

@@ -1,6 +1,6 @@
 #pragma once
 /// \file scan_source.hpp
-/// LiDAR scan pairs for obm-train (RECIPE.md "KITTI odometry": pairs (i, i + frame_gap), each scan
+/// LiDAR scan pairs for obm-train (RIENet's KITTI protocol: pairs (i, i + frame_gap), each scan
 /// on a voxel grid, then N random points): the `data:` map of a config with `source: kitti`.
 /// The sequences are KITTI odometry folders — real ones or the ones obm-sim writes. Training never
 /// reads their poses; validation scores against them, so validation sequences need ground truth.

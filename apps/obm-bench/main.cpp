@@ -1,4 +1,4 @@
-// obm-bench: the registration benchmark (RECIPE.md metrics) of OBMNet against ICP and the classical
+// obm-bench: the registration benchmark (docs/metrics.md) of OBMNet against ICP and the classical
 // peers, on generated object pairs or on a folder of pairs. See docs/obm-bench.md.
 #include <CLI/CLI.hpp>
 #include <cstdio>
@@ -218,7 +218,7 @@ int main(int argc, char** argv) {
                  "point; rgbd_frames: two different depth frames, --config "
                  "config/obmnet/train_indoor.yaml, --group val|unseen; indoor, "
                  "icl: 2048-point fragments, e.g. with --config config/obmnet/train_indoor.yaml; "
-                 "kitti: RECIPE.md's (i, i+10) LiDAR pairs of --sequence folders, see "
+                 "kitti: RIENet's (i, i+10) LiDAR pairs of --sequence folders, see "
                  "config/obmnet/train_lidar.yaml)")
       ->capture_default_str();
   app.add_option("--jitter", jitter_sigma,
@@ -311,7 +311,7 @@ int main(int argc, char** argv) {
          << ", voxel " << opts.voxel << " m, seed " << seed;
       info = os.str();
     } else if (protocol == "kitti") {
-      // RECIPE.md's KITTI protocol: pairs (i, i + frame_gap) of sweeps, each voxelised and sampled
+      // RIENet's KITTI protocol: pairs (i, i + frame_gap) of sweeps, each voxelised and sampled
       // to the config's points, scored against the sequences' ground truth.
       if (config_path.empty()) config_path = apps::findConfigFile("obmnet/train_lidar.yaml");
       const auto root = ConfigNode::loadFile(config_path);

@@ -1,6 +1,6 @@
 #pragma once
 /// \file data.hpp
-/// Registration pairs for training and evaluation (RECIPE.md "Data protocols"), free of LibTorch:
+/// Registration pairs for training and evaluation (docs/obm-bench.md, "Pairs"), free of LibTorch:
 /// the object set split, the pair protocols (clean, jitter, RIENet's outliers, partial crops),
 /// and the pair normalisation shared by the trainer and the inference API.
 #include <cstdint>
@@ -28,7 +28,7 @@ std::string splitName(Split s);
 /// Validation, else Train.
 Split splitForName(const std::string& name, double val_fraction, double test_fraction);
 
-/// How a pair (source, target) is made from one cloud (RECIPE.md "Data protocols").
+/// How a pair (source, target) is made from one cloud (docs/obm-bench.md, "Pairs").
 struct PairProtocol {
   /// Points drawn from the object's cloud for both source and target (the *same* points, as in
   /// DCP/RIENet's ModelNet40 protocol).

@@ -1,6 +1,6 @@
 #pragma once
 /// \file losses.hpp
-/// The unsupervised losses of RIENet / OBMNet (RECIPE.md "Unsupervised losses"). None of them uses
+/// The unsupervised losses of RIENet / OBMNet (docs/model.md "Unsupervised losses"). None of them uses
 /// ground truth: they compare the transformed source with the target and with the pseudo-target.
 #include <torch/torch.h>
 
@@ -20,7 +20,7 @@ torch::Tensor globalAlignmentLoss(const torch::Tensor& src_transformed, const to
 /// Indices (B×K, int64) of the K = min(n, N) highest `weights` (B×N): the keypoints of L_n, L_s.
 torch::Tensor selectKeypoints(const torch::Tensor& weights, int64_t n);
 
-/// L_n neighbourhood agreement (RECIPE.md, RIENet): for every keypoint i, x_i = p_{κ_i} of the
+/// L_n neighbourhood agreement (docs/model.md, RIENet): for every keypoint i, x_i = p_{κ_i} of the
 /// source and y_i = q'_{κ_i} its pseudo-correspondence; N(x_i) are the k nearest source points of
 /// x_i and N(y_i) the k nearest *target* points of y_i, both sorted by distance, and the j-th
 /// neighbours are paired: mean over keypoints, neighbours and batch of ‖R p_j + t − q_j‖.

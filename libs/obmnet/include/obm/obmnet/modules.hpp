@@ -1,6 +1,6 @@
 #pragma once
 /// \file modules.hpp
-/// Building blocks of OBMNet (RECIPE.md pipeline steps 1, 2, 3 and 7) and the kNN helpers they
+/// Building blocks of OBMNet (docs/model.md, steps 1, 2, 3 and 7) and the kNN helpers they
 /// share. Tensor layout everywhere: clouds and per-point features are B×C×N (channels first,
 /// float32).
 #include <torch/torch.h>

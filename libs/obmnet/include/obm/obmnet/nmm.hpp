@@ -1,6 +1,6 @@
 #pragma once
 /// \file nmm.hpp
-/// Neighbour map matching (NMM, RECIPE.md pipeline step 5): refines the matching map M with the
+/// Neighbour map matching (NMM, docs/model.md, step 5): refines the matching map M with the
 /// agreement of the matching probabilities between the k2-neighbourhoods of a source point and of
 /// a target point.
 #include <torch/torch.h>

@@ -1,6 +1,6 @@
 #pragma once
 /// \file svd.hpp
-/// Batched, differentiable weighted Procrustes (RECIPE.md pipeline step 8) and small SE(3) helpers
+/// Batched, differentiable weighted Procrustes (docs/model.md, step 8) and small SE(3) helpers
 /// on B×3×3 / B×3 tensors.
 #include <torch/torch.h>
 

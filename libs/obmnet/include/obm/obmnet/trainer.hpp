@@ -1,6 +1,6 @@
 #pragma once
 /// \file trainer.hpp
-/// Unsupervised training of OBMNet (RECIPE.md: Adam, step schedule, losses L_g + L_n + L_s).
+/// Unsupervised training of OBMNet (docs/training.md: Adam, step schedule, losses L_g + L_n + L_s).
 /// Ground truth is never used to train; it only scores the validation split, on which the best
 /// checkpoint is chosen (never on the test split). LibTorch stays out of this header.
 #include <array>
