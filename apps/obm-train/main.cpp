@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <csignal>
+#include <filesystem>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -16,7 +17,9 @@
 #include "obm/config/overrides.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
+#include "obm/obmnet/distributed.hpp"
 #include "obm/obmnet/trainer.hpp"
+#include "launcher.hpp"
 
 namespace {
 std::atomic<bool> g_stop{false};
@@ -30,7 +33,10 @@ int main(int argc, char** argv) {
       "obm-train: unsupervised training of OBMNet (L_g + L_n + L_s, no ground truth).\n"
       "Writes OUT/checkpoint.pt (resume point), OUT/best.pt (best on the validation split),\n"
       "OUT/train_log.csv and OUT/config.yaml. Ctrl-C stops after the current batch; the\n"
-      "checkpoint keeps the last whole epoch and --resume continues from it."};
+      "checkpoint keeps the last whole epoch and --resume continues from it.\n"
+      "Data-parallel: --nproc N starts N processes on this machine; on several machines start\n"
+      "one obm-train per process with RANK, WORLD_SIZE, MASTER_ADDR and MASTER_PORT set\n"
+      "(docs/training.md, \"Several processes\")."};
   std::string config_path, out_dir, data_dir;
   bool resume = false;
   int threads = 0, epochs = 0, measure = 0, overfit = 0, overfit_epoch = 0, batch = 0;
@@ -63,8 +69,39 @@ int main(int argc, char** argv) {
   app.add_option("--set", overrides,
                  "override any config key, repeatable: --set model.use_nmm=false --set train.lr=5e-4 "
                  "(the value is YAML; OUT/config.yaml records the result)");
+  int nproc = 0;
+  std::string device, dist_file;
+  app.add_option("--nproc", nproc,
+                 "data-parallel training with N processes on this machine (ranks 1..N-1 log to "
+                 "OUT/rank_K.log); the batch of train.batch_size pairs is split over them")
+      ->check(CLI::Range(1, 256));
+  app.add_option("--dist-file", dist_file,
+                 "rendezvous of the ranks through this file (on a file system all of them see; "
+                 "must not exist) instead of MASTER_ADDR:MASTER_PORT");
+  app.add_option("--device", device, "override train.device: cpu or cuda:K");
   app.add_option("--log-level", log_level, "debug|info|warn|error")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+
+  if (nproc > 1) {  // the launcher: the same command, without --nproc, once per rank
+    std::vector<std::string> args{"/proc/self/exe"};
+    for (int i = 1; i < argc; ++i) {
+      const std::string a = argv[i];
+      if (a == "--nproc") {
+        ++i;
+        continue;
+      }
+      if (a.rfind("--nproc=", 0) == 0) continue;
+      args.push_back(a);
+    }
+    try {
+      // The real path: /proc/self/exe of a child names the child itself.
+      args[0] = std::filesystem::canonical("/proc/self/exe").string();
+      return obm::apps::launchRanks(args, nproc, out_dir);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "obm-train: error: %s\n", e.what());
+      return 1;
+    }
+  }
 
   try {
     obm::setLogLevel(obm::parseLogLevel(log_level));
@@ -77,6 +114,12 @@ int main(int argc, char** argv) {
     if (max_hours >= 0) obm::setValue(root, "train.max_hours", YAML::Node(max_hours));
     if (batch > 0) obm::setValue(root, "train.batch_size", YAML::Node(batch));
     if (!data_dir.empty()) obm::setValue(root, "data.dir", YAML::Node(data_dir));
+    if (!device.empty()) obm::setValue(root, "train.device", YAML::Node(device));
+    auto dist = obm::obmnet::DistributedOptions::fromEnvironment();
+    if (!dist_file.empty()) dist.init_file = dist_file;
+    // Ranks other than 0 only report warnings (rank 0 prints the progress and the summary).
+    if (dist.rank > 0 && obm::parseLogLevel(log_level) < obm::LogLevel::Warn)
+      obm::setLogLevel(obm::LogLevel::Warn);
     auto cfg = obm::obmnet::TrainConfig::load(root);
     torch::set_num_threads(cfg.threads);
 
@@ -104,6 +147,11 @@ int main(int argc, char** argv) {
                                                            std::move(set.val), out_dir);
     }
     auto& trainer = *trainer_ptr;
+    if (dist.world_size > 1) {
+      trainer.setProcessGroup(std::make_shared<obm::obmnet::ProcessGroup>(dist));
+      std::fprintf(stderr, "[obm-train] rank %d of %d, %d threads, batch %d split over the ranks\n",
+                   dist.rank, dist.world_size, cfg.threads, cfg.batch_size);
+    }
     {
       std::string header = "# obm-train's configuration of this run: " + config_path;
       for (const auto& o : overrides) header += " --set " + o;

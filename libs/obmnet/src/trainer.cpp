@@ -15,6 +15,8 @@
 #include "obm/core/log.hpp"
 #include "obm/core/progress.hpp"
 #include "obm/core/timer.hpp"
+#include "obm/obmnet/collectives.hpp"
+#include "obm/obmnet/distributed.hpp"
 #include "obm/obmnet/model.hpp"
 #include "obm/obmnet/model_io.hpp"
 
@@ -28,7 +30,7 @@ TrainConfig TrainConfig::load(const ConfigNode& root) {
   t.checkKeys({"pairs", "val_pairs_protocol", "batch_size", "epochs", "pairs_per_epoch",
                "val_pairs", "lr", "weight_decay", "lr_steps", "lr_gamma", "normalize_radius",
                "recall_deg", "recall_trans", "max_grad_norm", "threads", "seed", "max_hours",
-               "curriculum_epochs", "curriculum_start"});
+               "curriculum_epochs", "curriculum_start", "device"});
   c.protocol = PairProtocol::load(t.child("pairs"));
   c.val_protocol =
       t.has("val_pairs_protocol") ? PairProtocol::load(t.child("val_pairs_protocol")) : c.protocol;
@@ -49,6 +51,18 @@ TrainConfig TrainConfig::load(const ConfigNode& root) {
   t.get("max_hours", c.max_hours);
   t.get("curriculum_epochs", c.curriculum_epochs);
   t.get("curriculum_start", c.curriculum_start);
+  t.get("device", c.device);
+  try {
+    const torch::Device dev(c.device);
+    if (dev.is_cuda() && !torch::cuda::is_available())
+      throw ConfigError(t.where("device") + ": '" + c.device +
+                        "' asked for, but this LibTorch build sees no CUDA device "
+                        "(torch::cuda::is_available() is false); use cpu");
+    if (!dev.is_cpu() && !dev.is_cuda())
+      throw ConfigError(t.where("device") + ": '" + c.device + "': cpu or cuda:K");
+  } catch (const c10::Error&) {
+    throw ConfigError(t.where("device") + ": '" + c.device + "' is not a device (cpu or cuda:K)");
+  }
   if (!(c.curriculum_start >= 0.0 && c.curriculum_start < 1.0))
     throw ConfigError(t.where("curriculum_start") + ": must be in [0, 1)");
   auto positive = [&](const char* key, double v) {
@@ -112,7 +126,7 @@ Isometry3d toIsometry(const torch::Tensor& R, const torch::Tensor& t, int64_t i)
 
 std::string csvHeader() {
   return "epoch,lr,loss,loss_global,loss_neighbor,loss_spatial,val_loss,val_mie_r_deg,val_mie_t,"
-         "val_recall,val_mean_alpha,pairs_per_s,wall_s,best\n";
+         "val_recall,val_mean_alpha,pairs_per_s,wall_s,best,comm_ms_per_step\n";
 }
 
 std::string csvRow(const EpochStats& s) {
@@ -120,7 +134,7 @@ std::string csvRow(const EpochStats& s) {
   os << std::setprecision(8) << s.epoch << ',' << s.lr << ',' << s.loss << ',' << s.loss_global
      << ',' << s.loss_neighbor << ',' << s.loss_spatial << ',' << s.val_loss << ',' << s.val_mie_r
      << ',' << s.val_mie_t << ',' << s.val_recall << ',' << s.val_mean_alpha << ',' << s.pairs_per_s
-     << ',' << s.wall_s << ',' << (s.best ? 1 : 0) << '\n';
+     << ',' << s.wall_s << ',' << (s.best ? 1 : 0) << ',' << s.comm_ms_per_step << '\n';
   return os.str();
 }
 
@@ -174,6 +188,14 @@ struct Trainer::Impl {
   std::vector<RegistrationPair> val_pairs;
   long skipped = 0;  ///< batches skipped for non-finite loss or gradients
   std::string run_config_yaml;  ///< written to out/config.yaml when set
+  torch::Device device{torch::kCPU};
+  /// Data-parallel run: this process's membership (null = a single process).
+  std::shared_ptr<ProcessGroup> group;
+  double comm_s = 0.0;  ///< time spent in the per-step collectives (this epoch)
+
+  int rank() const { return group ? group->rank() : 0; }
+  int world() const { return group ? group->worldSize() : 1; }
+  bool writer() const { return rank() == 0; }  ///< rank 0 writes every file
 
   Impl(TrainConfig c, PairSampler s, std::vector<RegistrationPair> v, std::string o)
       : cfg(std::move(c)), sampler(std::move(s)), out(std::move(o)), val_pairs(std::move(v)) {
@@ -183,6 +205,8 @@ struct Trainer::Impl {
     ObmNetConfig mc = cfg.model;
     mc.seed = cfg.seed;
     model = ObmNet(mc);
+    device = torch::Device(cfg.device);
+    model->to(device);
     optim = std::make_unique<torch::optim::Adam>(
         model->parameters(), torch::optim::AdamOptions(cfg.lr).weight_decay(cfg.weight_decay));
   }
@@ -205,39 +229,87 @@ struct Trainer::Impl {
     return pairs;
   }
 
-  /// One optimisation step; returns the loss terms.
-  std::array<double, 4> step(const Batch& b) {
+  /// The pairs of step `k` of `epoch` that this rank trains on. Pair j of the step's global batch
+  /// is drawn from its own generator, seeded by (seed, epoch, k, j): the data of an epoch does not
+  /// depend on the number of processes (a run resumes with another world size on the same pairs),
+  /// and rank r draws only its shard, the pairs j with j mod world = r.
+  std::vector<RegistrationPair> shardOfStep(int epoch, int k) const {
+    std::vector<RegistrationPair> pairs;
+    for (int j = rank(); j < cfg.batch_size; j += world()) {
+      std::seed_seq ss{static_cast<std::uint32_t>(cfg.seed), static_cast<std::uint32_t>(cfg.seed >> 32),
+                       static_cast<std::uint32_t>(epoch), static_cast<std::uint32_t>(k),
+                       static_cast<std::uint32_t>(j)};
+      std::mt19937_64 rng(ss);
+      pairs.push_back(sampler(rng, epoch));
+    }
+    return pairs;
+  }
+
+  Batch toDevice(Batch b) const {
+    if (!device.is_cpu()) {
+      b.src = b.src.to(device);
+      b.tgt = b.tgt.to(device);
+    }
+    return b;
+  }
+
+  /// One optimisation step on this rank's shard `b` of a batch of `global_pairs` pairs; returns
+  /// the loss terms, averaged over the whole batch.
+  std::array<double, 4> step(const Batch& b, int global_pairs) {
+    const int local = static_cast<int>(b.pairs.size());
+    // Data-parallel: rank 0's batch-normalisation statistics for every copy (DDP's
+    // broadcast_buffers), so that all ranks run the same model.
+    if (group) {
+      Timer tc;
+      std::vector<torch::Tensor> buffers;
+      for (const auto& kv : model->named_buffers(true)) buffers.push_back(kv.value());
+      broadcastTensors(*group, buffers, 0);
+      comm_s += tc.seconds();
+    }
     model->train();
     optim->zero_grad();
     const auto o = model->forward(b.src, b.tgt, /*compute_loss=*/true);
-    if (!std::isfinite(o.loss.item<double>())) {
-      ++skipped;
-      OBM_LOG_WARN_THROTTLE("obm-train", 10.0,
-                            "non-finite loss; batch skipped (" << skipped << " so far)");
-      return {0.0, 0.0, 0.0, 0.0};
+    std::array<double, 4> l{o.loss.item<double>(), o.loss_global.item<double>(),
+                            o.loss_neighbor.item<double>(), o.loss_spatial.item<double>()};
+    bool finite = std::isfinite(l[0]);
+    if (finite) {
+      o.loss.backward();
+      // A degenerate batch (e.g. repeated singular values in the SVD backward) can produce
+      // non-finite gradients; one such batch must not destroy the weights.
+      for (const auto& p : model->parameters())
+        if (p.grad().defined() && !torch::isfinite(p.grad()).all().item<bool>()) {
+          finite = false;
+          break;
+        }
     }
-    o.loss.backward();
-    // A degenerate batch (e.g. repeated singular values in the SVD backward) can produce
-    // non-finite gradients; one such batch must not destroy the weights.
-    bool finite = true;
-    for (const auto& p : model->parameters())
-      if (p.grad().defined() && !torch::isfinite(p.grad()).all().item<bool>()) {
-        finite = false;
-        break;
-      }
-    if (!finite) {
+    // The skip decision and the reported losses are collective: a batch skipped on one rank is
+    // skipped on all, or the copies would drift apart.
+    std::vector<double> agg{finite ? 0.0 : 1.0, std::isfinite(l[0]) ? 0.0 : 1.0};
+    for (double x : l) agg.push_back(std::isfinite(x) ? x * local : 0.0);
+    if (group) {
+      Timer tc;
+      group->allReduceSum(agg);
+      comm_s += tc.seconds();
+    }
+    for (int i = 0; i < 4; ++i) l[static_cast<std::size_t>(i)] = agg[static_cast<std::size_t>(2 + i)] / global_pairs;
+    if (agg[0] > 0) {
       ++skipped;
       OBM_LOG_WARN_THROTTLE("obm-train", 10.0,
-                            "non-finite gradient; batch skipped (" << skipped << " so far)");
+                            (agg[1] > 0 ? "non-finite loss" : "non-finite gradient")
+                                << "; batch skipped (" << skipped << " so far)");
       optim->zero_grad();
-      return {o.loss.item<double>(), o.loss_global.item<double>(), o.loss_neighbor.item<double>(),
-              o.loss_spatial.item<double>()};
+      if (agg[1] > 0) return {0.0, 0.0, 0.0, 0.0};
+      return l;
+    }
+    if (group) {
+      Timer tc;
+      allReduceGradients(*group, model->parameters(), local, global_pairs);
+      comm_s += tc.seconds();
     }
     if (cfg.max_grad_norm > 0)
       torch::nn::utils::clip_grad_norm_(model->parameters(), cfg.max_grad_norm);
     optim->step();
-    return {o.loss.item<double>(), o.loss_global.item<double>(), o.loss_neighbor.item<double>(),
-            o.loss_spatial.item<double>()};
+    return l;
   }
 
   ValidationScores validate() {
@@ -245,12 +317,17 @@ struct Trainer::Impl {
     model->eval();
     ValidationScores s;
     int hits = 0;
+    // Data-parallel: each rank scores the pairs i with i mod world = rank; the sums are reduced.
+    std::vector<RegistrationPair> mine;
+    for (std::size_t i = static_cast<std::size_t>(rank()); i < val_pairs.size();
+         i += static_cast<std::size_t>(world()))
+      mine.push_back(val_pairs[i]);
     const std::size_t B = static_cast<std::size_t>(cfg.batch_size);
-    for (std::size_t i0 = 0; i0 < val_pairs.size(); i0 += B) {
+    for (std::size_t i0 = 0; i0 < mine.size(); i0 += B) {
       std::vector<RegistrationPair> chunk(
-          val_pairs.begin() + static_cast<std::ptrdiff_t>(i0),
-          val_pairs.begin() + static_cast<std::ptrdiff_t>(std::min(val_pairs.size(), i0 + B)));
-      const Batch b = makeBatch(std::move(chunk), cfg.normalize_radius);
+          mine.begin() + static_cast<std::ptrdiff_t>(i0),
+          mine.begin() + static_cast<std::ptrdiff_t>(std::min(mine.size(), i0 + B)));
+      const Batch b = toDevice(makeBatch(std::move(chunk), cfg.normalize_radius));
       const auto o = model->forward(b.src, b.tgt, true);
       s.loss += o.loss.item<double>() * static_cast<double>(b.pairs.size());
       for (std::size_t j = 0; j < b.pairs.size(); ++j) {
@@ -263,6 +340,15 @@ struct Trainer::Impl {
         hits += (er < cfg.recall_deg && et < cfg.recall_trans) ? 1 : 0;
         s.mean_alpha += o.alpha[static_cast<int64_t>(j)].item<double>();
       }
+    }
+    if (group) {
+      std::vector<double> sums{s.loss, s.mie_r, s.mie_t, s.mean_alpha, static_cast<double>(hits)};
+      group->allReduceSum(sums);
+      s.loss = sums[0];
+      s.mie_r = sums[1];
+      s.mie_t = sums[2];
+      s.mean_alpha = sums[3];
+      hits = static_cast<int>(std::lround(sums[4]));
     }
     const double n = static_cast<double>(val_pairs.size());
     s.loss /= n;
@@ -368,7 +454,8 @@ void Trainer::initializeFrom(const std::string& model_path) {
 std::vector<std::array<double, 3>> Trainer::overfitOneBatch(int steps, int every, int epoch) {
   Impl& I = *impl_;
   std::mt19937_64 rng(I.cfg.seed + 4242u);
-  const Batch b = makeBatch(I.drawPairs(rng, I.cfg.batch_size, epoch), I.cfg.normalize_radius);
+  const Batch b =
+      I.toDevice(makeBatch(I.drawPairs(rng, I.cfg.batch_size, epoch), I.cfg.normalize_radius));
   auto meanError = [&](const ObmNetOutput& o) {
     double e = 0.0;
     for (std::size_t j = 0; j < b.pairs.size(); ++j) {
@@ -398,22 +485,43 @@ void Trainer::setRunConfigYaml(std::string yaml_text) {
 }
 
 double Trainer::measureThroughput(int n_batches) {
-  std::mt19937_64 rng(impl_->cfg.seed + 99u);
-  // One warm-up batch (allocations), then timed ones.
-  impl_->step(makeBatch(impl_->drawPairs(rng, impl_->cfg.batch_size, impl_->cfg.epochs),
-                        impl_->cfg.normalize_radius));
+  Impl& I = *impl_;
+  // The batches of the last epoch (this rank's shard of each); one warm-up batch (allocations),
+  // then timed ones. Pairs per second of the whole run (all ranks).
+  auto batch = [&](int k) {
+    return I.toDevice(makeBatch(I.shardOfStep(I.cfg.epochs, k), I.cfg.normalize_radius));
+  };
+  I.step(batch(0), I.cfg.batch_size);
   Timer t;
-  for (int i = 0; i < n_batches; ++i)
-    impl_->step(makeBatch(impl_->drawPairs(rng, impl_->cfg.batch_size, impl_->cfg.epochs),
-                          impl_->cfg.normalize_radius));
-  return n_batches * impl_->cfg.batch_size / t.seconds();
+  for (int k = 1; k <= n_batches; ++k) I.step(batch(k), I.cfg.batch_size);
+  return n_batches * I.cfg.batch_size / t.seconds();
+}
+
+void Trainer::setProcessGroup(std::shared_ptr<ProcessGroup> group) {
+  if (group && group->worldSize() > impl_->cfg.batch_size)
+    throw ConfigError("train.batch_size = " + std::to_string(impl_->cfg.batch_size) +
+                      " is smaller than the number of processes (" +
+                      std::to_string(group->worldSize()) + "): every rank needs a pair per step");
+  impl_->group = std::move(group);
+}
+
+std::vector<float> Trainer::parameterVector() const {
+  torch::NoGradGuard ng;
+  std::vector<torch::Tensor> parts;
+  for (const auto& p : impl_->model->parameters())
+    parts.push_back(p.detach().to(torch::kCPU, torch::kFloat32).flatten());
+  const auto flat = torch::cat(parts).contiguous();
+  return std::vector<float>(flat.data_ptr<float>(), flat.data_ptr<float>() + flat.numel());
 }
 
 std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& stop,
                                      const std::function<void(const EpochStats&)>& on_epoch) {
   Impl& I = *impl_;
-  ensureDirectory(I.out);
-  writeTextAtomically(I.out + "/config.yaml",
+  // Data-parallel: rank 0 writes every file; the others only train and validate their shards.
+  const bool writer = I.writer();
+  if (writer) ensureDirectory(I.out);
+  if (writer)
+    writeTextAtomically(I.out + "/config.yaml",
                       !I.run_config_yaml.empty()
                           ? I.run_config_yaml
                           : "# model configuration of this run\nmodel:\n" + [&] {
@@ -427,14 +535,24 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
   double best = 1e300, wall0 = 0.0;
   if (resume) {
     std::tie(start_epoch, best, wall0) = I.loadCheckpoint();
-    if (start_epoch > 0)
+    if (I.group) {  // every rank must resume from the same epoch (a shared output folder)
+      std::vector<double> e{static_cast<double>(start_epoch), 1.0};
+      I.group->allReduceSum(e);
+      if (std::lround(e[0]) != static_cast<long>(start_epoch) * I.world())
+        throw IoError(I.ckptPath() + ": rank " + std::to_string(I.rank()) + " resumes after epoch " +
+                      std::to_string(start_epoch) +
+                      " but the ranks disagree: every process must see the same output folder");
+    }
+    if (start_epoch > 0 && writer)
       OBM_LOG_INFO("obm-train", "resuming after epoch " << start_epoch << " (best val MIE(R) "
                                                         << best << " deg, " << wall0
                                                         << " s trained)");
   }
   const std::string csv = I.out + "/train_log.csv";
   std::string csv_text;
-  if (start_epoch > 0 && std::filesystem::exists(csv)) {
+  if (!writer) {
+    // Only rank 0 keeps the log.
+  } else if (start_epoch > 0 && std::filesystem::exists(csv)) {
     // Keep the rows of the epochs the checkpoint holds (later rows belong to an interrupted run).
     std::ifstream in(csv);
     std::string line;
@@ -442,18 +560,34 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
     csv_text = csvHeader();
     while (std::getline(in, line)) {
       if (line.empty()) continue;
-      if (std::stoi(line.substr(0, line.find(','))) <= start_epoch) csv_text += line + "\n";
+      if (std::stoi(line.substr(0, line.find(','))) > start_epoch) continue;
+      // Rows of an older version lack the last columns: left empty.
+      const auto columns = [](const std::string& l) { return std::count(l.begin(), l.end(), ','); };
+      const auto missing = columns(csvHeader()) - columns(line);
+      csv_text += line + std::string(static_cast<std::size_t>(std::max<long>(0, missing)), ',') + "\n";
     }
   } else {
     csv_text = csvHeader();
   }
-  writeTextAtomically(csv, csv_text);
+  if (writer) writeTextAtomically(csv, csv_text);
+  // Every copy starts from rank 0's weights (a warm start or a fresh initialisation drawn in
+  // each process would otherwise differ).
+  if (I.group) {
+    std::vector<torch::Tensor> all;
+    for (const auto& p : I.model->parameters()) all.push_back(p);
+    for (const auto& kv : I.model->named_buffers(true)) all.push_back(kv.value());
+    broadcastTensors(*I.group, all, 0);
+  }
 
   std::vector<EpochStats> stats;
   const int steps = (I.cfg.pairs_per_epoch + I.cfg.batch_size - 1) / I.cfg.batch_size;
   Timer wall;
   for (int epoch = start_epoch + 1; epoch <= I.cfg.epochs; ++epoch) {
-    if (I.cfg.max_hours > 0 && wall0 + wall.seconds() > I.cfg.max_hours * 3600.0) {
+    std::vector<double> out_of_time{
+        writer && I.cfg.max_hours > 0 && wall0 + wall.seconds() > I.cfg.max_hours * 3600.0 ? 1.0
+                                                                                            : 0.0};
+    if (I.group) I.group->allReduceSum(out_of_time);  // rank 0's clock decides for all
+    if (out_of_time[0] > 0) {
       OBM_LOG_WARN("obm-train", "max_hours reached; stopping before epoch " << epoch);
       break;
     }
@@ -461,20 +595,24 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
     s.epoch = epoch;
     s.lr = I.lrForEpoch(epoch);
     I.setLr(s.lr);
-    // Pairs of epoch e depend only on (seed, e): a resumed run sees the same data.
-    std::mt19937_64 rng(I.cfg.seed * 1000003u + static_cast<std::uint64_t>(epoch));
+    // Pairs of epoch e depend only on (seed, e) (shardOfStep): a resumed run sees the same data.
     ProgressBar bar(static_cast<std::size_t>(steps),
                     "epoch " + std::to_string(epoch) + "/" + std::to_string(I.cfg.epochs),
                     "batches");
+    bar.setEnabled(writer);
     Timer et;
+    I.comm_s = 0.0;
     bool interrupted = false;
     for (int k = 0; k < steps; ++k) {
-      if (stop && stop()) {
+      // A stop on any rank (Ctrl-C reaches every process of a launch) stops all at this step.
+      std::vector<double> stopping{stop && stop() ? 1.0 : 0.0};
+      if (I.group) I.group->allReduceSum(stopping);
+      if (stopping[0] > 0) {
         interrupted = true;
         break;
       }
-      const auto l =
-          I.step(makeBatch(I.drawPairs(rng, I.cfg.batch_size, epoch), I.cfg.normalize_radius));
+      const auto l = I.step(I.toDevice(makeBatch(I.shardOfStep(epoch, k), I.cfg.normalize_radius)),
+                            I.cfg.batch_size);
       s.loss += l[0];
       s.loss_global += l[1];
       s.loss_neighbor += l[2];
@@ -492,6 +630,7 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
     }
     const double train_s = et.seconds();
     s.pairs_per_s = steps * I.cfg.batch_size / train_s;
+    s.comm_ms_per_step = 1000.0 * I.comm_s / steps;
     s.loss /= steps;
     s.loss_global /= steps;
     s.loss_neighbor /= steps;
@@ -506,6 +645,8 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
     if (v.mie_r < best) {
       best = v.mie_r;
       s.best = true;
+    }
+    if (s.best && writer) {
       ModelMeta meta;
       meta.normalize_radius = I.cfg.normalize_radius;
       // The points per cloud *before* a partial crop: inference samples clouds larger than this
@@ -521,9 +662,13 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
     st << std::setprecision(4) << "loss " << s.loss << "  val MIE(R) " << v.mie_r << " deg  recall "
        << v.recall << (s.best ? "  *best*" : "");
     bar.finish(st.str());
-    I.saveCheckpoint(epoch, best, s.wall_s);
-    csv_text += csvRow(s);
-    writeTextAtomically(csv, csv_text);
+    if (writer) {
+      I.saveCheckpoint(epoch, best, s.wall_s);
+      csv_text += csvRow(s);
+      writeTextAtomically(csv, csv_text);
+    }
+    // The other ranks go on only once the checkpoint of this epoch exists.
+    if (I.group) I.group->barrier();
     stats.push_back(s);
     if (on_epoch) on_epoch(s);
   }

@@ -20,6 +20,8 @@ class ConfigNode;
 
 namespace obmnet {
 
+class ProcessGroup;
+
 /// Everything a training run needs besides the data. Loaded from the `train:` and `model:` maps of
 /// a YAML file in `TrainConfig::load`; see config/obmnet/*.yaml.
 struct TrainConfig {
@@ -49,6 +51,8 @@ struct TrainConfig {
   /// warm-started model at 40 % of the target's jitter and crop, where it still matches.
   double curriculum_start = 0.0;
 
+  /// Where the network trains: "cpu" or "cuda:K" (a LibTorch build with CUDA; checked at load).
+  std::string device = "cpu";
   static TrainConfig load(const ConfigNode& root);
 };
 
@@ -60,6 +64,9 @@ struct EpochStats {
   double val_loss = 0.0, val_mie_r = 0.0, val_mie_t = 0.0, val_recall = 0.0, val_mean_alpha = 0.0;
   double pairs_per_s = 0.0;
   double wall_s = 0.0;  ///< cumulated training wall time at the end of this epoch
+  /// Data-parallel runs: mean time per step spent in the collectives (gradient all-reduce,
+  /// buffer broadcast, loss and stop-flag reductions) [ms]; 0 for a single process.
+  double comm_ms_per_step = 0.0;
   bool best = false;
 };
 
@@ -112,6 +119,15 @@ class Trainer {
   /// `obm-train -c OUT/config.yaml -o OUT --resume` continues the same run. When not set, run()
   /// records the model section only (all the library knows).
   void setRunConfigYaml(std::string yaml_text);
+  /// Data-parallel training (distributed.hpp): this process is one rank of `group`. Each step's
+  /// batch of `batch_size` pairs is split over the ranks (pair j to rank j mod world), the
+  /// gradients are averaged by an all-reduce, the validation pairs are shared out and their
+  /// scores reduced, and only rank 0 writes files. Call before run(); every rank must run the
+  /// same configuration. Throws ConfigError when batch_size < the number of ranks.
+  void setProcessGroup(std::shared_ptr<ProcessGroup> group);
+  /// Every parameter of the model, flattened in a fixed order (for checks: the copies of a
+  /// data-parallel run must stay identical).
+  std::vector<float> parameterVector() const;
 
   /// Runs until `config.epochs` (continuing from out_dir/checkpoint.pt when `resume`), or until
   /// `stop()` returns true (checked between batches; the checkpoint then holds the last whole
