@@ -502,6 +502,13 @@ void Trainer::setProcessGroup(std::shared_ptr<ProcessGroup> group) {
     throw ConfigError("train.batch_size = " + std::to_string(impl_->cfg.batch_size) +
                       " is smaller than the number of processes (" +
                       std::to_string(group->worldSize()) + "): every rank needs a pair per step");
+  // The collectives run on CPU tensors (Gloo). A CUDA run across processes needs NCCL's process
+  // group, which this build does not have: said plainly rather than copying every step to the
+  // host.
+  if (group && group->worldSize() > 1 && !impl_->device.is_cpu())
+    throw ConfigError("train.device = " + impl_->cfg.device +
+                      ": data-parallel training is implemented for cpu (Gloo) only; NCCL for CUDA "
+                      "devices is not built in");
   impl_->group = std::move(group);
 }
 
