@@ -9,6 +9,8 @@ find_package(PNG REQUIRED)
 # MRPT 2.x (rawlog, observations)
 find_package(mrpt-obs REQUIRED)
 find_package(mrpt-maps REQUIRED)  # CObservationPointCloud lives in mrpt-maps
+find_package(mrpt-poses REQUIRED)  # CPose3DPDFGaussian (libs/mrpt_bridge)
+find_package(mrpt-slam QUIET)      # CICP: the peer of the bridge's tests
 
 # HDF5 (ModelNet40 files), C API
 find_package(HDF5 REQUIRED COMPONENTS C)
