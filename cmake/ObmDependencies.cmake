@@ -10,6 +10,7 @@ find_package(PNG REQUIRED)
 find_package(mrpt-obs REQUIRED)
 find_package(mrpt-maps REQUIRED)  # CObservationPointCloud lives in mrpt-maps
 find_package(mrpt-poses REQUIRED)  # CPose3DPDFGaussian (libs/mrpt_bridge)
+find_package(mrpt-opengl REQUIRED)  # COpenGLScene (.3Dscene output)
 find_package(mrpt-slam QUIET)      # CICP: the peer of the bridge's tests
 
 # HDF5 (ModelNet40 files), C API

@@ -8,6 +8,8 @@
 #include <mrpt/obs/CObservationVelodyneScan.h>
 #include <mrpt/obs/CRawlog.h>
 #include <mrpt/obs/CSensoryFrame.h>
+#include <mrpt/opengl/COpenGLScene.h>
+#include <mrpt/poses/CPose3DInterpolator.h>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -21,6 +23,7 @@
 #include "obm/core/errors.hpp"
 #include "obm/io/point_cloud_io.hpp"
 #include "obm/mrpt_bridge/conversions.hpp"
+#include "obm/mrpt_bridge/export.hpp"
 #include "obm/mrpt_bridge/mrpt_matcher.hpp"
 #include "test_data.hpp"
 #ifdef OBM_TEST_HAS_CICP
@@ -321,4 +324,63 @@ TEST(MrptBridge, AnObservationWithoutPointsIsAClearError) {
     EXPECT_NE(std::string(e.what()).find("LIDAR_TOP"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("CObservationPointCloud"), std::string::npos) << e.what();
   }
+}
+
+TEST(MrptBridgeExport, SimpleMapRoundTripsThroughMrpt) {
+  std::vector<ExportKeyframe> kfs;
+  for (int i = 0; i < 3; ++i) {
+    ExportKeyframe k;
+    k.timestamp = 100.0 + i;
+    k.T_world_sensor = makeIsometry(
+        Eigen::Matrix3d(Eigen::AngleAxisd(0.2 * i, Eigen::Vector3d::UnitZ())),
+        Eigen::Vector3d(2.0 * i, 0.5 * i, 0.0));
+    k.information = (i == 0 ? 1e6 : 400.0) * Matrix6d::Identity();
+    k.cloud = sceneSamples(300 + 10 * static_cast<std::size_t>(i), 20 + static_cast<std::uint64_t>(i));
+    kfs.push_back(k);
+  }
+  const std::string dir = test::scratchDir("mrpt_export");
+  const std::string path = dir + "/kf.simplemap";
+  writeSimpleMap(path, kfs);
+  const auto back = readSimpleMap(path);
+  ASSERT_EQ(back.size(), kfs.size());
+  for (std::size_t i = 0; i < kfs.size(); ++i) {
+    EXPECT_TRUE(back[i].T_world_sensor.isApprox(kfs[i].T_world_sensor, 1e-9)) << i;
+    EXPECT_NEAR(back[i].timestamp, kfs[i].timestamp, 1e-5);
+    ASSERT_EQ(back[i].cloud.size(), kfs[i].cloud.size());
+    EXPECT_EQ(back[i].cloud.points.front(), kfs[i].cloud.points.front());
+    // σ² = 1/400 in x, y, z (translation block of Ω = 400·I, rotated by R: still 1/400·I).
+    EXPECT_NEAR(back[i].covariance(0, 0), i == 0 ? 1e-6 : 1.0 / 400.0, 1e-9);
+  }
+  EXPECT_THROW(readSimpleMap(dir + "/none.simplemap"), IoError);
+  EXPECT_THROW(writeSimpleMap(dir + "/no_such_folder/kf.simplemap", kfs), IoError);
+}
+
+TEST(MrptBridgeExport, SceneAndInterpolatorLoadInMrpt) {
+  const std::string dir = test::scratchDir("mrpt_export");
+  SceneContent c;
+  std::vector<double> stamps;
+  for (int i = 0; i < 20; ++i) {
+    c.trajectory.push_back(makeIsometry(Eigen::Matrix3d::Identity(), Eigen::Vector3d(i, 0.1 * i, 0)));
+    c.ground_truth.push_back(makeIsometry(Eigen::Matrix3d::Identity(), Eigen::Vector3d(i, 0, 0)));
+    stamps.push_back(0.1 * i);
+  }
+  c.keyframes = {c.trajectory.front(), c.trajectory.back()};
+  c.map_points = sceneSamples(1000, 3);
+  c.loops.emplace_back(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(19, 1.9, 0));
+  write3DScene(dir + "/scene.3Dscene", c);
+  mrpt::opengl::COpenGLScene scene;
+  ASSERT_TRUE(scene.loadFromFile(dir + "/scene.3Dscene"));
+  // grid, origin axes, map cloud, ground truth, trajectory, loops, two keyframe axes
+  EXPECT_EQ(scene.getViewport()->size(), 8u);
+
+  writePoseInterpolatorText(dir + "/traj.txt", stamps, c.trajectory);
+  mrpt::poses::CPose3DInterpolator interp;
+  ASSERT_TRUE(interp.loadFromTextFile(dir + "/traj.txt"));
+  ASSERT_EQ(interp.size(), 20u);
+  mrpt::poses::CPose3D p;
+  bool valid = false;
+  interp.interpolate(mrpt::Clock::fromDouble(0.55), p, valid);
+  EXPECT_TRUE(valid);
+  EXPECT_NEAR(p.x(), 5.5, 1e-4);  // spline between stamps stored with 6 decimals
+  EXPECT_THROW(writePoseInterpolatorText(dir + "/t2.txt", {0.0}, c.trajectory), ContractError);
 }

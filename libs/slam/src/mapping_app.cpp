@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "map_worker.hpp"
+#include "mrpt_outputs.hpp"
 #include "obm/backend/graph_io.hpp"
 #include "obm/core/atomic_file.hpp"
 #include "obm/core/errors.hpp"
@@ -331,6 +332,8 @@ RunSummary MappingApp::run() {
     writeTrajectoryPng(file("trajectory_topview.png"), traj, gt_plot, loop_frames, T_up_sensor,
                        cfg.output.png_max_pixels);
   }
+  if (cfg.output.mrpt && !traj.empty())
+    writeMrptOutputs(fe, traj, stamps, gt_plot, T_up_sensor, cfg.output.scene_voxel, file);
   app_times.add("output", output_timer.ms());
 
   // Timing (written last so it covers everything but itself).

@@ -55,13 +55,17 @@ void OutputParams::validate() const {
   require(std::isfinite(map_rebuild_rotation) && map_rebuild_rotation >= 0.0,
           "map_rebuild_rotation_deg", "must be >= 0 [deg]");
   require(png_max_pixels >= 64, "png_max_pixels", "must be >= 64");
+  require(std::isfinite(scene_voxel) && scene_voxel > 0.0, "scene_voxel", "must be > 0 [m]");
 }
 
 OutputParams OutputParams::load(const ConfigNode& node) {
   node.checkKeys({"map", "pictures", "map_every", "map_cloud_voxel", "map_rebuild_translation",
-                  "map_rebuild_rotation_deg", "png_z_max", "png_max_pixels"});
+                  "map_rebuild_rotation_deg", "png_z_max", "png_max_pixels", "mrpt",
+                  "scene_voxel"});
   OutputParams p;
   node.get("map", p.map);
+  node.get("mrpt", p.mrpt);
+  node.get("scene_voxel", p.scene_voxel);
   node.get("pictures", p.pictures);
   node.get("map_every", p.map_every);
   node.get("map_cloud_voxel", p.map_cloud_voxel);

@@ -49,6 +49,11 @@ struct OutputParams {
   /// Top view: ignore voxels above this height in the map frame [m] (ceilings); none by default.
   double png_z_max = 1e30;
   int png_max_pixels = 2048;  ///< [px] largest side of the pictures
+  /// Files for MRPT's tools: keyframes.simplemap (observations2map, CSimpleMap consumers),
+  /// scene.3Dscene (SceneViewer3D) and trajectory_mrpt.txt (CPose3DInterpolator text).
+  bool mrpt = true;
+  /// [m] voxel of the map points drawn in scene.3Dscene (the keyframe clouds, merged).
+  double scene_voxel = 0.5;
 
   static OutputParams load(const ConfigNode& node);
   void validate() const;
