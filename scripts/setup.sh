@@ -21,6 +21,8 @@ PACKAGES=(
   libopen3d-dev
   # MRPT tools and datasets (graph-slam, icp-slam peers; /usr/share/mrpt/datasets/*.rawlog test data)
   mrpt-apps mrpt-common
+  # headless browser of the report.html check (tests/apps/check_report_html.sh)
+  chromium
   # the demo prints obm-map's metrics with python3; scripts/bench_slam.sh scores with it
   python3
 )

@@ -11,6 +11,7 @@
 
 #include "map_worker.hpp"
 #include "mrpt_outputs.hpp"
+#include "run_report.hpp"
 #include "obm/backend/graph_io.hpp"
 #include "obm/core/atomic_file.hpp"
 #include "obm/core/errors.hpp"
@@ -245,6 +246,7 @@ RunSummary MappingApp::run() {
   const detail::GroundTruth gt = source->groundTruth(stamps, cfg.input.max_time_difference);
   sum.ground_truth = gt.path;
   std::vector<Isometry3d> gt_plot;  // ground truth in the estimate's world frame, for the picture
+  std::vector<double> ate_errors, ate_distance;  // per evaluated frame, for the report
   if (!gt.path.empty()) {
     sum.metrics = computeMetrics(traj, gt, calib);
     eval::PoseList est, ref;
@@ -259,8 +261,15 @@ RunSummary MappingApp::run() {
       T_gt_est.linear() = ate.alignment.R;
       T_gt_est.translation() = ate.alignment.t;
       for (const auto& T : ref) gt_plot.push_back(T_gt_est.inverse() * T);
+      ate_errors = ate.errors;
+      double d = 0.0;
+      for (std::size_t i = 0; i < ref.size(); ++i) {
+        if (i > 0) d += (ref[i].translation() - ref[i - 1].translation()).norm();
+        ate_distance.push_back(d);
+      }
     }
   }
+  nlohmann::json metrics_json, timing_json;
   {
     nlohmann::json j;
     const TrajectoryMetrics m = sum.metrics.value_or(TrajectoryMetrics{});
@@ -293,6 +302,7 @@ RunSummary MappingApp::run() {
     j["input_kind"] = sum.input_kind;
     j["interrupted"] = sum.interrupted;
     writeTextAtomically(file("metrics.json"), j.dump(2) + "\n");
+    metrics_json = j;
   }
 
   // Map.
@@ -363,6 +373,33 @@ RunSummary MappingApp::run() {
     j["map_max_keyframe_shift_deg"] = map_shift_deg;
     j["hardware_threads"] = std::thread::hardware_concurrency();
     writeTextAtomically(file("timing.json"), j.dump(2) + "\n");
+    timing_json = j;
+  }
+  // The page of the run (after timing.json, which it shows): report.html and the SVG top view.
+  if (cfg.output.pictures && !traj.empty()) {
+    RunReport rep;
+    rep.title = options_.input;
+    auto xy = [&](const Isometry3d& T) {
+      const Eigen::Vector3d p = T_up_sensor * T.translation();
+      return Eigen::Vector2d(p.x(), p.y());
+    };
+    for (const auto& T : traj) rep.estimate.push_back(xy(T));
+    for (const auto& T : gt_plot) rep.reference.push_back(xy(T));
+    for (const auto& lc : fe.loops())
+      if (lc.accepted)
+        rep.loops.emplace_back(fe.keyframes()[lc.from].frame_index,
+                               fe.keyframes()[lc.to].frame_index);
+    rep.error_m = ate_errors;
+    rep.distance_m = ate_distance;
+    rep.metrics = metrics_json;
+    rep.timing = timing_json;
+    std::map<std::string, int> counts;
+    for (const auto s : fe.statuses()) ++counts[frontend::toString(s)];
+    for (const auto& [k, c] : counts) rep.status_counts.emplace_back(k, c);
+    for (const char* png : {"trajectory_topview.png", "map_topview.png"})
+      if (fs::exists(out / png)) rep.pictures.emplace_back(png);
+    writeTextAtomically(file("trajectory_topview.svg"), trajectorySvg(rep));
+    writeTextAtomically(file("report.html"), reportHtml(rep));
   }
   return sum;
 }
