@@ -48,4 +48,15 @@ read -r mx my < <(awk '{x+=$1; y+=$2} END {printf "%f %f\n", x/NR, y/NR}' "$pts"
 read -r tx ty < <(awk '{x+=$2; y+=$3} END {printf "%f %f\n", x/NR, y/NR}' "$out/trajectory_mrpt.txt")
 lt "$(awk -v a="$mx" -v b="$my" -v c="$tx" -v d="$ty" 'BEGIN {print sqrt((a-c)^2 + (b-d)^2)}')" 60 ||
   fail "observations2map's points ($mx, $my) are far from the drive ($tx, $ty)"
+# A rawlog with nothing obm-map can play (MRPT's own rot_scan_velodyne.rawlog: one
+# CObservationRotatingScan, which MRPT 2.5 cannot unproject) is a clear error, not 0 frames.
+rot=/usr/share/mrpt/datasets/rot_scan_velodyne.rawlog
+if [[ -f $rot ]]; then
+  if "$bin/obm-map" --config config/map_kitti.yaml --input "$rot" --out "$work/rot" --no-map -q \
+      > "$work/rot.log" 2>&1; then
+    fail "obm-map must fail on a rawlog without playable observations"
+  fi
+  grep -q 'no observation obm-map can play (it holds 1 CObservationRotatingScan)' "$work/rot.log" ||
+    { cat "$work/rot.log"; fail "the error must name what the rawlog holds"; }
+fi
 echo "MRPT tools on obmslam's files: OK ($n points from observations2map)"

@@ -180,11 +180,9 @@ class RawlogSource : public FrameSource {
     if (ended_) return false;
     io::RawlogObservation obs;
     while (true) {
+      bool at_end = false;
       try {
-        if (!reader_.next(obs)) {
-          ended_ = true;
-          return false;
-        }
+        at_end = !reader_.next(obs);
       } catch (const FormatError& e) {
         // A truncated or corrupt rawlog cannot be read past the damage: stop there.
         ++read_errors_;
@@ -192,7 +190,15 @@ class RawlogSource : public FrameSource {
         ended_ = true;
         return false;
       }
-      if (!p_.sensor_label.empty() && obs.sensor_label != p_.sensor_label) continue;
+      if (at_end) {
+        ended_ = true;
+        reportSkipped();  // outside the try: "nothing to play" is not a damaged file
+        return false;
+      }
+      if (!p_.sensor_label.empty() && obs.sensor_label != p_.sensor_label) {
+        ++other_labels_;
+        continue;
+      }
       break;
     }
     if (first_) {
@@ -218,6 +224,29 @@ class RawlogSource : public FrameSource {
   }
 
  private:
+  /// At the end of the rawlog: what was not played, and a clear error when nothing was.
+  void reportSkipped() const {
+    std::string classes;
+    for (const auto& [cls, k] : reader_.counts().skipped_by_class)
+      classes += (classes.empty() ? "" : ", ") + std::to_string(k) + " " + cls;
+    if (first_) {
+      throw FormatError(
+          path_, 0,
+          "no observation obm-map can play" +
+              (classes.empty() ? std::string() : " (it holds " + classes + ")") +
+              (other_labels_ > 0 ? "; " + std::to_string(other_labels_) +
+                                       " observations have another sensor label than input.sensor_label '" +
+                                       p_.sensor_label + "'"
+                                 : std::string()) +
+              ". Played: CObservationPointCloud, CObservationVelodyneScan (MRPT's "
+              "generatePointCloud), CObservation3DRangeScan (MRPT's unprojection), "
+              "CObservation2DRangeScan. MRPT 2.5's CObservationRotatingScan stores no laser "
+              "elevations, so it cannot be turned into points");
+    }
+    if (!classes.empty())
+      OBM_LOG_WARN(kLog, path_ << ": skipped observations that are not point clouds: " << classes);
+  }
+
   static io::RawlogReadOptions readOptions(const InputParams& p) {
     io::RawlogReadOptions o;
     o.velodyne_min_range = p.velodyne_min_range;
@@ -229,6 +258,7 @@ class RawlogSource : public FrameSource {
   InputParams p_;
   io::RawlogReader reader_;
   bool ended_ = false, first_ = true;
+  std::size_t other_labels_ = 0;
   Isometry3d up_ = Isometry3d::Identity();
 };
 
