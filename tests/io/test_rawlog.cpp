@@ -307,3 +307,24 @@ TEST(Rawlog, WriterIsAtomicAndReaderReportsDamage) {
   EXPECT_THROW(w2.writeDepth(small, 1000.0, io::PinholeIntrinsics{}, Isometry3d::Identity(), 0, ""),
                ContractError);
 }
+
+TEST(Rawlog, FuzzFindingHugeStringLengthIsAFormatError) {
+  // Found by tests/fuzz (scripts/fuzz.sh): a corrupt CObservation2DRangeScan inside a sensory
+  // frame whose string length field claims ~2.3 GB. MRPT allocates that much before it finds
+  // the stream short; the reader must then report the damage as a FormatError naming the file
+  // and the object, after the observations it could read.
+  const std::string path = std::string(OBM_SOURCE_DIR) +
+                           "/tests/fuzz/regressions/rawlog/mrpt_string_length_4gb.rawlog";
+  obm::io::RawlogReader reader(path);
+  obm::io::RawlogObservation obs;
+  std::size_t read = 0;
+  try {
+    while (reader.next(obs)) ++read;
+    ADD_FAILURE() << "the corrupt object must be reported";
+  } catch (const obm::FormatError& e) {
+    const std::string w = e.what();
+    EXPECT_NE(w.find(path), std::string::npos) << w;
+    EXPECT_NE(w.find("object 27"), std::string::npos) << w;
+  }
+  EXPECT_GT(read, 0u) << "the observations before the damage are played";
+}

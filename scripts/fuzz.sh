@@ -1,0 +1,85 @@
+#!/usr/bin/env bash
+# Fuzzes every reader of user input with libFuzzer (clang, AddressSanitizer + UBSan) and prints a
+# table: executions, coverage, crashes. Docs: docs/benchmarks.md, "Fuzzing".
+#
+#   scripts/fuzz.sh [SECONDS_PER_TARGET=60] [TARGETS="ply pcd off_obj kitti trajectories png rawlog graph yaml"]
+#   scripts/fuzz.sh ci        # CI: a fixed number of runs from the seeds alone, fixed seed
+#                             # (deterministic: a clean run here is a clean run in CI)
+#
+# Builds ./build-fuzz (CXX=clang++, -DOBM_FUZZ=ON, no LibTorch, no apps). Seed corpora come from
+# the real files of ../shared/data (or $OBM_SHARED_DATA), the project's configs and a few files
+# written here; the corpora grow in build-fuzz/corpus/<target>/ across runs. A crash leaves its
+# input in build-fuzz/findings/<target>/ and makes the script exit 1.
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+SECS=${1:-60}
+TARGETS=${2:-"ply pcd off_obj kitti trajectories png rawlog graph yaml"}
+BUILD="$ROOT/build-fuzz"
+DATA="${OBM_SHARED_DATA:-$ROOT/../shared/data}"
+command -v clang++ > /dev/null || { echo "fuzz.sh: clang++ not found (apt-get install clang)" >&2; exit 1; }
+if [[ ! -f "$BUILD/CMakeCache.txt" ]]; then
+  CC=clang CXX=clang++ cmake -S "$ROOT" -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DOBM_FUZZ=ON -DOBM_WITH_TORCH=OFF -DOBM_BUILD_APPS=OFF -DOBM_BUILD_TESTS=OFF > "$BUILD.cmake.log" 2>&1 ||
+    { cat "$BUILD.cmake.log"; exit 1; }
+fi
+cmake --build "$BUILD" -j"${OBM_JOBS:-$(nproc)}" --target $(for t in $TARGETS; do printf 'fuzz_%s ' "$t"; done)
+
+# seed DIR FILES...: copies the first 64 kB of each existing file into the corpus folder.
+seed() {
+  local dir=$1; shift
+  mkdir -p "$dir"
+  for f in "$@"; do [[ -f $f ]] && head -c 65536 "$f" > "$dir/seed_$(basename "$f")"; done
+  return 0
+}
+C="$BUILD/corpus"
+if [[ $SECS == ci ]]; then
+  C="$BUILD/corpus-ci"
+  rm -rf "$C"
+fi
+seed "$C/ply" "$DATA"/real_pairs/*/*.ply
+seed "$C/pcd" "$ROOT"/tests/io/data/*.pcd
+printf 'OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n' > "$C/seed.off" 2> /dev/null || true
+mkdir -p "$C/off_obj" && mv -f "$C/seed.off" "$C/off_obj/seed.off"
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' > "$C/off_obj/seed.obj"
+seed "$C/kitti" "$DATA"/kitti/hdl64_sample/000000.bin "$DATA"/kitti/calib/00.txt "$DATA"/kitti/times/00.txt "$DATA"/kitti/poses/00.txt
+seed "$C/trajectories" "$DATA"/tum/*.txt "$DATA"/rgbd_open3d/*.log "$DATA"/rgbd_open3d/*.json
+seed "$C/png" $(ls "$DATA"/rgbd_open3d/depth/*.png 2> /dev/null | head -2) $(ls "$DATA"/rgbd_open3d/color/*.png 2> /dev/null | head -1)
+seed "$C/rawlog" /usr/share/mrpt/datasets/rot_scan_2d.rawlog /usr/share/mrpt/datasets/localization_demo.rawlog
+seed "$C/graph" "$DATA"/posegraph/tinyGrid3D.g2o "$DATA"/posegraph/intel.g2o
+seed "$C/yaml" "$ROOT"/config/*.yaml "$ROOT"/config/obmnet/*.yaml
+for t in $TARGETS; do mkdir -p "$C/$t"; done
+
+printf '\n| target | seconds | executions | exec/s | coverage (edges) | corpus | crashes |\n|---|---:|---:|---:|---:|---:|---:|\n' > "$BUILD/table.md"
+status=0
+for t in $TARGETS; do
+  mkdir -p "$BUILD/findings/$t"
+  log="$BUILD/findings/$t.log"
+  # Memory limit: 2 GB, except for rawlogs. MRPT's deserializer sizes a string or vector from the
+  # length stored in the file (up to 4 GiB) before reading it; the read then fails and the reader
+  # reports a FormatError (e.g. "object 27: cannot deserialize"). The allocation is MRPT's, not a
+  # crash, so rawlogs get room for it.
+  # (Zero-filling such a string takes seconds under ASan: rawlogs get a longer per-input timeout.)
+  limit=(-rss_limit_mb=2048 -malloc_limit_mb=2048 -timeout=10)
+  [[ $t == rawlog ]] && limit=(-rss_limit_mb=6144 -malloc_limit_mb=4608 -timeout=60)
+  if [[ $SECS == ci ]]; then budget=(-runs=3000 -seed=1); else budget=(-max_total_time="$SECS"); fi
+  set +e
+  ASAN_OPTIONS="detect_container_overflow=0:detect_odr_violation=0:detect_leaks=1" \
+  LSAN_OPTIONS="suppressions=$ROOT/.ci/lsan.supp:print_suppressions=0" \
+    "$BUILD/tests/fuzz/fuzz_$t" "${budget[@]}" "${limit[@]}" \
+    -max_len=262144 -print_final_stats=1 -artifact_prefix="$BUILD/findings/$t/" "$C/$t" > "$log" 2>&1
+  rc=$?
+  set -e
+  execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
+  rate=$(sed -n 's/^stat::average_exec_per_sec: *//p' "$log" | tail -1)
+  cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | cut -d' ' -f2)
+  corpus=$(ls "$C/$t" | wc -l)
+  crashes=$(ls "$BUILD/findings/$t" | wc -l)
+  printf '| %s | %s | %s | %s | %s | %s | %s |\n' "$t" "$SECS" "${execs:-?}" "${rate:-?}" "${cov:-?}" "$corpus" "$crashes" >> "$BUILD/table.md"
+  if (( rc != 0 || crashes > 0 )); then
+    status=1
+    echo "[fuzz] $t: FINDING (exit $rc) — $log" >&2
+    grep -m3 -E 'ERROR|SUMMARY|terminate|what\(\)' "$log" >&2 || true
+  fi
+done
+cat "$BUILD/table.md"
+exit $status
