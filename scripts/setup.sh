@@ -8,8 +8,8 @@
 set -euo pipefail
 
 PACKAGES=(
-  # toolchain
-  cmake g++ ninja-build ccache pkg-config git
+  # toolchain (clang: the libFuzzer targets of scripts/fuzz.sh)
+  cmake g++ clang ninja-build ccache pkg-config git
   # libraries
   libeigen3-dev libmrpt-dev libtorch-dev libceres-dev liboctomap-dev libgtest-dev libgmock-dev
   libembree-dev libhdf5-dev libnanoflann-dev libyaml-cpp-dev nlohmann-json3-dev libpng-dev libcli11-dev

@@ -300,6 +300,9 @@ void PlyBodyReader::read(const PlyElement& el, std::size_t index, std::vector<do
 }
 
 void PlyBodyReader::skip(const PlyElement& el) {
+  // A record without properties holds no bytes: nothing to skip, however large the count (a
+  // header saying "element x 10000000000" with no property would otherwise loop for hours).
+  if (el.properties.empty()) return;
   std::vector<double> v;
   std::vector<std::vector<double>> l;
   for (std::size_t i = 0; i < el.count; ++i) read(el, i, v, l);
