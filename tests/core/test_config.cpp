@@ -89,3 +89,18 @@ TEST(ConfigOverrides, BadAssignmentsNameTheAssignment) {
   c.child("model").get("k1", k1);
   EXPECT_EQ(k1, 5);  // failed overrides change nothing
 }
+
+TEST(Config, FuzzFindingAMapUsedAsAKeyIsAConfigError) {
+  // Found by tests/fuzz (scripts/fuzz.sh): "{{}: ...}" — YAML allows a map as a key. checkKeys
+  // converted every key to text and let yaml-cpp's bad-conversion exception escape; it must be a
+  // ConfigError naming the file.
+  for (const char* text : {"{{}: 1}", "[1, 2]: x\n", "a: 1\n? {b: 2}\n: 3\n"}) {
+    const auto node = ConfigNode::fromString(text, "bad.yaml");
+    try {
+      node.checkKeys({"a"});
+      ADD_FAILURE() << "no error for " << text;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("bad.yaml"), std::string::npos) << e.what();
+    }
+  }
+}

@@ -58,6 +58,12 @@ void ConfigNode::checkKeys(const std::vector<std::string>& known) const {
   if (!node_.IsMap()) return;
   const std::set<std::string> ks(known.begin(), known.end());
   for (const auto& kv : node_) {
+    // YAML allows a map or a list as a key ("{a: 1}: 2"); no configuration has one.
+    if (!kv.first.IsScalar()) {
+      const auto m = kv.first.Mark();
+      throw ConfigError(where() + ": a key that is not a name (a map or list used as a key, line " +
+                        std::to_string(m.line + 1) + ")");
+    }
     const std::string k = kv.first.as<std::string>();
     if (!ks.count(k)) {
       std::string list;
