@@ -9,7 +9,7 @@ set -euo pipefail
 
 PACKAGES=(
   # toolchain (clang: the libFuzzer targets of scripts/fuzz.sh)
-  cmake g++ clang ninja-build ccache pkg-config git
+  cmake g++ clang libclang-rt-14-dev ninja-build ccache pkg-config git
   # libraries
   libeigen3-dev libmrpt-dev libtorch-dev libceres-dev liboctomap-dev libgtest-dev libgmock-dev
   libembree-dev libhdf5-dev libnanoflann-dev libyaml-cpp-dev nlohmann-json3-dev libpng-dev libcli11-dev
@@ -22,7 +22,7 @@ PACKAGES=(
   # MRPT tools and datasets (graph-slam, icp-slam peers; /usr/share/mrpt/datasets/*.rawlog test data)
   mrpt-apps mrpt-common
   # headless browser of the report.html check (tests/apps/check_report_html.sh)
-  chromium
+  chromium fonts-dejavu-core
   # the demo prints obm-map's metrics with python3; scripts/bench_slam.sh scores with it
   python3
 )
