@@ -6,7 +6,7 @@
 #   scripts/fuzz.sh ci        # CI: a fixed number of runs from the seeds alone, fixed seed
 #                             # (deterministic: a clean run here is a clean run in CI)
 #
-# Builds ./build-fuzz (CXX=clang++, -DOBM_FUZZ=ON, no LibTorch, no apps). Seed corpora come from
+# Builds ./build-fuzz ($OBM_FUZZ_BUILD to choose another folder; CXX=clang++, -DOBM_FUZZ=ON, no LibTorch, no apps). Seed corpora come from
 # the real files of ../shared/data (or $OBM_SHARED_DATA), the project's configs and a few files
 # written here; the corpora grow in build-fuzz/corpus/<target>/ across runs. A crash leaves its
 # input in build-fuzz/findings/<target>/ and makes the script exit 1.
@@ -21,13 +21,14 @@ if [[ $SECS == ci ]]; then
 else
   TARGETS=${2:-"ply pcd off_obj kitti trajectories png rawlog graph yaml"}
 fi
-BUILD="$ROOT/build-fuzz"
+BUILD="${OBM_FUZZ_BUILD:-$ROOT/build-fuzz}"
 DATA="${OBM_SHARED_DATA:-$ROOT/../shared/data}"
 command -v clang++ > /dev/null || { echo "fuzz.sh: clang++ not found (apt-get install clang)" >&2; exit 1; }
 if [[ ! -f "$BUILD/CMakeCache.txt" ]]; then
+  mkdir -p "$BUILD"
   CC=clang CXX=clang++ cmake -S "$ROOT" -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DOBM_FUZZ=ON -DOBM_WITH_TORCH=OFF -DOBM_BUILD_APPS=OFF -DOBM_BUILD_TESTS=OFF > "$BUILD.cmake.log" 2>&1 ||
-    { cat "$BUILD.cmake.log"; exit 1; }
+    -DOBM_FUZZ=ON -DOBM_WITH_TORCH=OFF -DOBM_BUILD_APPS=OFF -DOBM_BUILD_TESTS=OFF > "$BUILD/configure.log" 2>&1 ||
+    { cat "$BUILD/configure.log"; exit 1; }
 fi
 cmake --build "$BUILD" -j"${OBM_JOBS:-$(nproc)}" --target $(for t in $TARGETS; do printf 'fuzz_%s ' "$t"; done)
 
