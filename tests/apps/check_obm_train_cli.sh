@@ -9,13 +9,7 @@ tool="$1"
 root="$2"
 work="$3"
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
-meshes="${OBM_CGAL_DATA:-${OBM_CACHE:-$HOME/.cache/obmslam}/cgal/data/meshes}"
-if ! ls "$meshes"/*.off >/dev/null 2>&1; then
-  # In CI (CI=true) the data must be there, as for the other tests on real data.
-  [[ "${CI:-}" == "true" ]] && fail "no CGAL meshes in $meshes (scripts/get_cgal_meshes.sh)"
-  echo "SKIP: no CGAL meshes in $meshes (scripts/get_cgal_meshes.sh)"
-  exit 77
-fi
+cgal_meshes_or_skip
 rm -rf "$work"
 mkdir -p "$work"
 cd "$work"

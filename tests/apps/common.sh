@@ -9,3 +9,13 @@ num() {
 }
 # lt A B: A < B as floating-point numbers.
 lt() { awk -v a="$1" -v b="$2" 'BEGIN { exit !(a + 0 < b + 0) }'; }
+# cgal_meshes_or_skip: sets $meshes to the CGAL mesh folder (OBM_CGAL_DATA or
+# scripts/get_cgal_meshes.sh's cache); without meshes, skips (exit 77), or fails in CI.
+cgal_meshes_or_skip() {
+  meshes="${OBM_CGAL_DATA:-${OBM_CACHE:-$HOME/.cache/obmslam}/cgal/data/meshes}"
+  if ! ls "$meshes"/*.off >/dev/null 2>&1; then
+    [[ "${CI:-}" == "true" ]] && fail "no CGAL meshes in $meshes (scripts/get_cgal_meshes.sh)"
+    echo "SKIP: no CGAL meshes in $meshes (scripts/get_cgal_meshes.sh)"
+    exit 77
+  fi
+}

@@ -3,8 +3,10 @@
 // A test that needs it fails loudly in CI (CI=true) when it is missing, and skips elsewhere.
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 namespace obm::test {
@@ -25,6 +27,18 @@ inline std::string scratchDir(const std::string& name) {
   std::filesystem::remove_all(p);
   std::filesystem::create_directories(p);
   return p.string();
+}
+
+/// A 4×4 matrix of 16 whitespace-separated numbers (the reference poses of shared/data's pairs).
+inline Eigen::Isometry3d readMatrix4(const std::string& path) {
+  std::ifstream in(path);
+  Eigen::Matrix4d M;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) in >> M(r, c);
+  EXPECT_TRUE(in.good() || in.eof()) << path;
+  Eigen::Isometry3d T;
+  T.matrix() = M;
+  return T;
 }
 
 }  // namespace obm::test

@@ -38,8 +38,7 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 double rotationErrorDeg(const Isometry3d& A, const Isometry3d& B) {
-  const Eigen::AngleAxisd aa(Eigen::Matrix3d(A.linear().transpose() * B.linear()));
-  return std::abs(aa.angle()) * 180.0 / kPi;
+  return rotationAngle(A.linear().transpose() * B.linear()) * kRadToDeg;
 }
 
 /// A street-like scene sampled on its own: ground, two facades with recesses, posts and boxes.
@@ -193,6 +192,21 @@ static std::pair<Isometry3d, Isometry3d> bothRegistrations(const PointCloud& tar
   return {r.match.T_target_source, mrpt_T};
 }
 
+/// Prints both registrations' errors against `T_ref` (MRPT's when CICP is built); returns ours
+/// (translation [m], rotation [deg]).
+static std::pair<double, double> printBoth(const std::string& label, const Isometry3d& ours,
+                                           const Isometry3d& theirs, const Isometry3d& T_ref) {
+  const double et = (ours.translation() - T_ref.translation()).norm();
+  const double er = rotationErrorDeg(ours, T_ref);
+  std::printf("%s: obmslam ICP %.4f m / %.4f deg", label.c_str(), et, er);
+#ifdef OBM_TEST_HAS_CICP
+  std::printf(", MRPT CICP %.4f m / %.4f deg", (theirs.translation() - T_ref.translation()).norm(),
+              rotationErrorDeg(theirs, T_ref));
+#endif
+  std::printf("\n");
+  return {et, er};
+}
+
 TEST(MrptBridge, IcpNextToMrptCicpOnIndependentlySampledScene) {
   // Two independent samplings of one scene, the second moved by a known pose: both ICPs from the
   // identity; ours is asserted accurate and reported beside CICP.
@@ -203,14 +217,7 @@ TEST(MrptBridge, IcpNextToMrptCicpOnIndependentlySampledScene) {
   const PointCloud source = transformed(sceneSamples(20000, 12), T_true.inverse());
   MrptScanMatcher::Result r;
   const auto [ours, theirs] = bothRegistrations(target, source, Isometry3d::Identity(), &r);
-  const double et_ours = (ours.translation() - T_true.translation()).norm();
-  const double er_ours = rotationErrorDeg(ours, T_true);
-  std::printf("synthetic scene: obmslam ICP %.4f m / %.4f deg", et_ours, er_ours);
-#ifdef OBM_TEST_HAS_CICP
-  std::printf(", MRPT CICP %.4f m / %.4f deg", (theirs.translation() - T_true.translation()).norm(),
-              rotationErrorDeg(theirs, T_true));
-#endif
-  std::printf("\n");
+  const auto [et_ours, er_ours] = printBoth("synthetic scene", ours, theirs, T_true);
   EXPECT_LT(et_ours, 0.05);
   EXPECT_LT(er_ours, 0.2);
   // The PDF: mean = the match, covariance symmetric positive definite and small where the scene
@@ -226,29 +233,16 @@ TEST(MrptBridge, IcpNextToMrptCicpOnIndependentlySampledScene) {
 }
 
 TEST(MrptBridge, IcpNextToMrptCicpOnARealLidarPair) {
+  OBM_REQUIRE_SHARED_DATA("real_pairs/lidar_small_gicp/source.ply");
   const std::string dir = test::sharedDataDir() + "/real_pairs/lidar_small_gicp";
-  if (!std::filesystem::exists(dir + "/source.ply")) {
-    if (test::inCI()) FAIL() << "missing " << dir;
-    GTEST_SKIP() << "no " << dir;
-  }
   const PointCloud source = voxelDownsample(io::readPointCloud(dir + "/source.ply"), 0.4);
   const PointCloud target = voxelDownsample(io::readPointCloud(dir + "/target.ply"), 0.4);
-  std::ifstream in(dir + "/T_target_source.txt");
-  Eigen::Matrix4d M;
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) in >> M(r, c);
-  const Isometry3d T_ref(M);
+  const Isometry3d T_ref = test::readMatrix4(dir + "/T_target_source.txt");
   MrptScanMatcher::Result r;
   const auto [ours, theirs] = bothRegistrations(target, source, Isometry3d::Identity(), &r);
-  const double et = (ours.translation() - T_ref.translation()).norm();
-  const double er = rotationErrorDeg(ours, T_ref);
-  std::printf("real LiDAR pair (%zu / %zu points): obmslam ICP %.4f m / %.4f deg", source.size(),
-              target.size(), et, er);
-#ifdef OBM_TEST_HAS_CICP
-  std::printf(", MRPT CICP %.4f m / %.4f deg", (theirs.translation() - T_ref.translation()).norm(),
-              rotationErrorDeg(theirs, T_ref));
-#endif
-  std::printf("  (reference: the data's own alignment)\n");
+  const auto [et, er] = printBoth("real LiDAR pair (" + std::to_string(source.size()) + " / " +
+                                      std::to_string(target.size()) + " points, against the data's "
+                                      "own alignment)", ours, theirs, T_ref);
   EXPECT_LT(et, 0.1);
   EXPECT_LT(er, 0.5);
 }

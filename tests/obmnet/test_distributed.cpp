@@ -13,6 +13,7 @@
 #include "obm/obmnet/collectives.hpp"
 #include "obm/obmnet/distributed.hpp"
 #include "obm/obmnet/trainer.hpp"
+#include "small_training.hpp"
 #include "test_data.hpp"
 
 using namespace obm;
@@ -164,32 +165,12 @@ TEST(Distributed, APeerThatLeavesIsAClearError) {
 TEST(Distributed, TwoRanksTrainOneModelAndAnotherWorldSizeResumes) {
   // Two ranks of a small trainer: after an epoch their copies are identical (one model), they
   // moved, rank 0 alone wrote the run's files, and a single process resumes the run from them.
-  ObmNetConfig mc;
-  mc.emb_dims = 32;
-  mc.dim = 4;
-  mc.k1 = 8;
-  mc.k2 = 4;
-  mc.n_keypoints = 32;
-  mc.n_samples = 8;
-  mc.n_iters = 1;
-  TrainConfig tc;
-  tc.model = mc;
-  tc.protocol.num_points = 96;
-  tc.val_protocol = tc.protocol;
+  TrainConfig tc = test::smallTrainConfig();
+  tc.model.n_iters = 1;
   tc.val_pairs = 3;
-  tc.batch_size = 4;
   tc.pairs_per_epoch = 8;
   tc.epochs = 1;
-  tc.lr = 1e-3;
-  tc.threads = 1;
-  std::vector<PointCloud> clouds;
-  for (int o = 0; o < 3; ++o) {
-    std::mt19937_64 rng(60 + static_cast<std::uint64_t>(o));
-    std::normal_distribution<float> G(0.f, 1.f);
-    PointCloud c;
-    for (int i = 0; i < 150; ++i) c.points.emplace_back(0.8f * G(rng), 0.4f * G(rng), 0.2f * G(rng));
-    clouds.push_back(c);
-  }
+  const std::vector<PointCloud> clouds = test::blobClouds(3, 150, 60);
   const std::string dir = test::scratchDir("dist_trainer");
   std::filesystem::remove_all(dir + "/run");
   // Built here, one after the other (the initial weights come from torch's global generator).
@@ -237,13 +218,17 @@ TEST(Distributed, BatchSmallerThanTheWorldIsRejected) {
   const std::string store = test::scratchDir("dist_small") + "/store";
   int rejected = 0;
   runTwoRanks(store, 30.0, [&](int r, ProcessGroup& g) {
-    if (r != 0) return;
-    try {
-      t.setProcessGroup(std::shared_ptr<ProcessGroup>(&g, [](ProcessGroup*) {}));
-    } catch (const ConfigError& e) {
-      ++rejected;
-      EXPECT_NE(std::string(e.what()).find("batch_size"), std::string::npos) << e.what();
+    if (r == 0) {
+      try {
+        t.setProcessGroup(std::shared_ptr<ProcessGroup>(&g, [](ProcessGroup*) {}));
+      } catch (const ConfigError& e) {
+        ++rejected;
+        EXPECT_NE(std::string(e.what()).find("batch_size"), std::string::npos) << e.what();
+      }
     }
+    // Both leave together: a rank that closes its connections while the other is still
+    // finishing the rendezvous makes that one fail.
+    g.barrier();
   });
   EXPECT_EQ(rejected, 1);
 }

@@ -18,6 +18,7 @@
 #include "obm/obmnet/registrar.hpp"
 #include "obm/obmnet/svd.hpp"
 #include "obm/obmnet/trainer.hpp"
+#include "small_training.hpp"
 #include "test_data.hpp"
 
 using namespace obm;
@@ -271,33 +272,9 @@ TEST(Trainer, OverfitOneBatchLowersTheRotationError) {
   // clouds share their samples) must bring its rotation error well down. A broken gradient path
   // (a detached weight, a sign error in a loss) leaves it where it started.
   const std::string dir = test::scratchDir("obmnet_overfit");
-  ObmNetConfig mc;
-  mc.emb_dims = 32;
-  mc.dim = 4;
-  mc.k1 = 8;
-  mc.k2 = 4;
-  mc.n_keypoints = 32;
-  mc.n_samples = 8;
-  mc.n_iters = 2;
-  TrainConfig tc;
-  tc.model = mc;
-  tc.protocol.num_points = 96;
-  tc.protocol.max_angle_deg = 45.0;
-  tc.val_protocol = tc.protocol;
-  tc.val_pairs = 1;
-  tc.batch_size = 4;
-  tc.lr = 1e-3;
-  tc.threads = 1;
+  const TrainConfig tc = test::smallTrainConfig();
   // Anisotropic blobs: a rotation of them is well defined.
-  std::vector<PointCloud> clouds;
-  for (int o = 0; o < 4; ++o) {
-    std::mt19937_64 rng(40 + static_cast<std::uint64_t>(o));
-    std::normal_distribution<float> G(0.f, 1.f);
-    PointCloud c;
-    for (int i = 0; i < 200; ++i)
-      c.points.emplace_back(0.8f * G(rng), 0.45f * G(rng) + 0.2f * std::sin(3.0f * i), 0.2f * G(rng));
-    clouds.push_back(c);
-  }
+  const std::vector<PointCloud> clouds = test::blobClouds(4, 200, 40);
   Trainer trainer(tc, clouds, clouds, dir);
   const auto rows = trainer.overfitOneBatch(30, 10, 1);
   ASSERT_GE(rows.size(), 3u);

@@ -35,17 +35,6 @@ double rte(const Isometry3d& T, const Isometry3d& gt) {
   return (T.translation() - gt.translation()).norm();
 }
 
-Isometry3d readMatrix4(const std::string& path) {
-  std::ifstream in(path);
-  Eigen::Matrix4d M;
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) in >> M(r, c);
-  EXPECT_TRUE(in.good() || in.eof()) << path;
-  Isometry3d T;
-  T.matrix() = M;
-  return T;
-}
-
 ObmNetMatcherParams netParams(const std::string& model) {
   ObmNetMatcherParams p;
   p.model_path = model;
@@ -105,7 +94,7 @@ TEST(ModelAccuracy, ObjectModelOnIndependentSamplingsOfUnseenObjects) {
 TEST(ModelAccuracy, LidarModelOnTheRealOutdoorPair) {
   OBM_REQUIRE_SHARED_DATA("real_pairs/lidar_small_gicp/T_target_source.txt");
   const std::string d = test::sharedDataDir() + "/real_pairs/lidar_small_gicp/";
-  const Isometry3d gt = readMatrix4(d + "T_target_source.txt");
+  const Isometry3d gt = test::readMatrix4(d + "T_target_source.txt");
   const PointCloud source = voxelDownsample(cropRange(io::readPointCloud(d + "source.ply"), 2.0, 50.0), 0.3);
   const PointCloud target = voxelDownsample(cropRange(io::readPointCloud(d + "target.ply"), 2.0, 50.0), 0.3);
   IcpParams icp;

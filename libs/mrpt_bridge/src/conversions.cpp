@@ -4,27 +4,12 @@
 #include <mrpt/obs/CObservationVelodyneScan.h>
 
 #include <Eigen/Eigenvalues>
-#include <cmath>
 
 #include "obm/core/errors.hpp"
 
 namespace obm::mrpt_bridge {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
-
-double wrapAngle(double a) {
-  while (a > kPi) a -= 2 * kPi;
-  while (a < -kPi) a += 2 * kPi;
-  return a;
-}
-
-Eigen::Matrix3d expSO3(const Eigen::Vector3d& w) {
-  const double th = w.norm();
-  if (th < 1e-15) return Eigen::Matrix3d::Identity();
-  return Eigen::AngleAxisd(th, w / th).toRotationMatrix();
-}
-
 /// (yaw, pitch, roll) of R in MRPT's convention R = Rz(yaw)·Ry(pitch)·Rx(roll).
 Eigen::Vector3d yawPitchRoll(const Eigen::Matrix3d& R) {
   const mrpt::poses::CPose3D p = toCPose3D(makeIsometry(R, Eigen::Vector3d::Zero()));

@@ -288,14 +288,8 @@ IcpMatcher::IcpMatcher(const IcpParams& icp, const ConfidenceParams& confidence)
 
 MatchResult IcpMatcher::impl_match(const PointCloud& source, const PreparedTarget& target,
                                    const Isometry3d& T_target_source_init) const {
-  MatchResult result;
   const IcpOutcome icp = runIcp(source.points, target, T_target_source_init, icp_);
-  result.T_target_source = icp.T_target_source;
-  result.status = icp.status;
-  result.message = icp.message;
-  result.converged = icp.converged;
-  result.iterations = icp.iterations;
-  result.num_correspondences = icp.num_correspondences;
+  MatchResult result = icp.toMatchResult();
   if (icp.status == MatchStatus::TooFewCorrespondences) return result;
   const AlignmentStats stats =
       evaluateAlignment(source.points, nullptr, target, result.T_target_source, icp_, confidence_);

@@ -108,18 +108,6 @@ double biasWeightedConfidence(const NetworkStage& net, const PreparedTarget& tar
   return den > 0.0 ? num / den : 0.0;
 }
 
-/// The pose, status and iterations of an ICP outcome as a MatchResult.
-MatchResult fromIcp(const IcpOutcome& icp) {
-  MatchResult r;
-  r.T_target_source = icp.T_target_source;
-  r.status = icp.status;
-  r.message = icp.message;
-  r.converged = icp.converged;
-  r.iterations = icp.iterations;
-  r.num_correspondences = icp.num_correspondences;
-  return r;
-}
-
 /// What every OBMNet matcher adds to its pose: the network's α and overlap, then (when the pose
 /// pairs enough points) the confidence, with the information weighted by the network's ω, and
 /// the bias-weighted confidence.
@@ -249,7 +237,7 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
          staged.num_correspondences > icp.num_correspondences))
       icp = std::move(staged);
   }
-  return withNetworkConfidence(fromIcp(icp), net, source, target, icp_, confidence_);
+  return withNetworkConfidence(icp.toMatchResult(), net, source, target, icp_, confidence_);
 }
 
 struct ObmmIcpMatcher::Impl {
@@ -284,7 +272,7 @@ MatchResult ObmmIcpMatcher::impl_match(const PointCloud& source, const PreparedT
   for (std::size_t i = 0; i < source.size(); ++i)
     weights[i] = index.nearest(source.points[i], 1e30, j, d2) ? net.prior[j] / mean_w : 0.0;
   const IcpOutcome icp = runIcp(source.points, target, T_target_source_init, icp_, &weights);
-  return withNetworkConfidence(fromIcp(icp), net, source, target, icp_, confidence_);
+  return withNetworkConfidence(icp.toMatchResult(), net, source, target, icp_, confidence_);
 }
 
 struct OverlapPredictor::Impl {

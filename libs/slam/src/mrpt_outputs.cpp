@@ -1,5 +1,7 @@
 #include "mrpt_outputs.hpp"
 
+#include <map>
+
 #include "obm/backend/pose_graph.hpp"
 #include "obm/core/cloud_ops.hpp"
 #include "obm/mrpt_bridge/export.hpp"

@@ -21,6 +21,19 @@ struct IcpOutcome {
   bool converged = false;
   int iterations = 0;                   ///< correspondence searches done
   std::size_t num_correspondences = 0;  ///< at the last iteration
+
+  /// A MatchResult with this outcome's pose, status, message, convergence, iterations and
+  /// correspondences (the confidence is left to the matcher).
+  MatchResult toMatchResult() const {
+    MatchResult r;
+    r.T_target_source = T_target_source;
+    r.status = status;
+    r.message = message;
+    r.converged = converged;
+    r.iterations = iterations;
+    r.num_correspondences = num_correspondences;
+    return r;
+  }
 };
 
 /// Runs ICP of `source_points` (source frame, finite) onto `target` from `T_target_source_init`.
