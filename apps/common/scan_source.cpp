@@ -20,7 +20,7 @@ ScanSourceConfig ScanSourceConfig::load(const ConfigNode& node) {
   ScanSourceConfig c;
   node.checkKeys({"source", "dir", "sequences", "val_sequences", "frame_gap", "frame_gaps",
                   "voxel", "min_range", "max_range", "voxel_keypoints", "loop_fraction",
-                  "loop_max_distance", "loop_min_separation", "yaw_augment_deg"});
+                  "loop_max_distance", "loop_min_separation", "yaw_augment_deg", "pose_labels"});
   std::string source = "kitti";
   node.get("source", source);
   if (source != "kitti")
@@ -39,6 +39,10 @@ ScanSourceConfig ScanSourceConfig::load(const ConfigNode& node) {
   node.get("loop_max_distance", c.loop_max_distance);
   node.get("loop_min_separation", c.loop_min_separation);
   node.get("yaw_augment_deg", c.yaw_augment_deg);
+  node.get("pose_labels", c.pose_labels);
+  if (c.pose_labels.find('/') != std::string::npos)
+    throw ConfigError(node.where("pose_labels") + ": '" + c.pose_labels +
+                      "': a file name inside each training sequence's folder, not a path");
   for (int g : c.frame_gaps)
     if (g < 1) throw ConfigError(node.where("frame_gaps") + ": every gap must be >= 1");
   if (!(c.loop_fraction >= 0.0 && c.loop_fraction <= 1.0))
@@ -68,11 +72,20 @@ std::string sequenceFolder(const ScanSourceConfig& c, const std::string& name) {
                 " and " + name + ")");
 }
 
+/// `labels`: the training sequences, whose poses come from `c.pose_labels` when it is set.
 std::vector<std::shared_ptr<const io::KittiSequence>> openAll(
-    const ScanSourceConfig& c, const std::vector<std::string>& names) {
+    const ScanSourceConfig& c, const std::vector<std::string>& names, bool labels = false) {
   std::vector<std::shared_ptr<const io::KittiSequence>> seqs;
   for (const auto& n : names) {
-    auto s = std::make_shared<const io::KittiSequence>(sequenceFolder(c, n));
+    const std::string folder = sequenceFolder(c, n);
+    std::string poses;
+    if (labels && !c.pose_labels.empty()) {
+      poses = (fs::path(folder) / c.pose_labels).string();
+      if (!fs::is_regular_file(poses))
+        throw IoError(poses + ": pose labels (data.pose_labels) not found; write them with "
+                              "obm-map --input " + folder + " and copy its trajectory_kitti.txt");
+    }
+    auto s = std::make_shared<const io::KittiSequence>(folder, poses);
     if (s->size() <= static_cast<std::size_t>(c.frame_gap))
       throw FormatError(s->directory(), 0,
                         "sequence has " + std::to_string(s->size()) +
@@ -111,6 +124,12 @@ obmnet::RegistrationPair makePairIJ(const io::KittiSequence& s, std::size_t i, s
   auto pair = obmnet::makeScanPair(source, loadScan(s, i, c), T, c.voxel, num_points, rng,
                                    c.voxel_keypoints);
   pair.name = s.name() + ":" + std::to_string(j) + "->" + std::to_string(i);
+  if (!c.pose_labels.empty() && s.hasGroundTruth() &&
+      fs::path(s.groundTruthPath()).filename() == c.pose_labels) {
+    // A training sequence opened on its pose labels (openAll): T is the label, not ground truth.
+    pair.has_pose_label = true;
+    pair.T_target_source_label = T;
+  }
   return pair;
 }
 
@@ -171,7 +190,7 @@ obmnet::RegistrationPair makeSelfPair(const io::KittiSequence& s, std::size_t i,
 
 obmnet::PairSampler scanPairSampler(const ScanSourceConfig& config, int num_points,
                                     int curriculum_epochs) {
-  auto seqs = openAll(config, config.sequences);
+  auto seqs = openAll(config, config.sequences, /*labels=*/true);
   const std::vector<int> gaps =
       config.frame_gaps.empty() ? std::vector<int>{config.frame_gap} : config.frame_gaps;
   const int max_gap = *std::max_element(gaps.begin(), gaps.end());

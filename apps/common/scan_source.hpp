@@ -42,6 +42,13 @@ struct ScanSourceConfig {
   /// z axis (a made-up heading change, so revisits from any direction are covered; no ground
   /// truth involved).
   double yaw_augment_deg = 0.0;
+  /// Self-supervised pose labels: a file name inside each *training* sequence's folder holding
+  /// the trajectory the mapping app estimated on it (obm-map's trajectory_kitti.txt, camera-0
+  /// poses in the convention of poses.txt). When set, the training pairs and the loop search read
+  /// their poses from it, never from poses.txt, and each pair carries its relative pose as a label
+  /// (RegistrationPair::T_target_source_label, for train.pose_loss_weight). Validation sequences
+  /// keep their ground truth, which only scores.
+  std::string pose_labels;
 
   /// Reads the `data:` map (source must be `kitti`); unknown keys are errors naming the file.
   static ScanSourceConfig load(const ConfigNode& node);

@@ -221,6 +221,29 @@ TEST(PairNormalization, RoundTripAndDenormalize) {
   EXPECT_LE(r, 1.0 + 1e-5);
 }
 
+TEST(PairNormalization, SharedCentroidKeepsTheIdentityOfSensorFrameScans) {
+  // Two "sweeps" of one place from sensors 1 m apart: the target sees more of the scene ahead,
+  // so the two centroids differ by far more than the motion.
+  PointCloud world;
+  for (int i = 0; i < 400; ++i) world.points.emplace_back(0.1f * i, (i % 2) ? 4.f : -4.f, 0.5f);
+  PointCloud source, target;
+  for (const auto& p : world.points) {
+    if (p.x() < 20.f) source.points.push_back(p);
+    if (p.x() >= 1.f) target.points.push_back(p - Vector3f(1.f, 0.f, 0.f));
+  }
+  Isometry3d T = Isometry3d::Identity();  // T_target_source: the source sensor is 1 m behind
+  T.translation() = Eigen::Vector3d(-1.0, 0.0, 0.0);
+  const auto separate = PairNormalization::compute(source, target, 1.0);
+  const auto shared = PairNormalization::compute(source, target, 1.0, true);
+  EXPECT_TRUE(shared.centroid_source.isApprox(shared.centroid_target));
+  // Shared centre: the normalised motion is the real one, scaled (the identity is 1 m off).
+  EXPECT_NEAR(shared.normalize(T).translation().norm() / shared.scale, 1.0, 1e-9);
+  // Separate centres: the network would start at the offset of the centroids instead.
+  EXPECT_GT(separate.normalize(T).translation().norm() / separate.scale, 5.0);
+  // Both undo exactly.
+  EXPECT_TRUE(shared.denormalize(shared.normalize(T)).isApprox(T, 1e-12));
+}
+
 TEST(ObjectSet, SplitIsByNameAndStable) {
   int counts[3] = {0, 0, 0};
   for (int i = 0; i < 1000; ++i) {

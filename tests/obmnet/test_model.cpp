@@ -250,6 +250,21 @@ TEST(Losses, SpatialConsistencyIsMinusLogOfRowMax) {
   EXPECT_NEAR(spatialConsistencyLoss(P.log(), kp).item<double>(), expected, 1e-12);
 }
 
+TEST(Losses, PoseLabelIsTheMeanPointDistance) {
+  torch::manual_seed(13);
+  const auto src = torch::randn({2, 3, 25});
+  const auto R = randomRotation(2).to(torch::kFloat32);
+  const auto t = torch::randn({2, 3});
+  EXPECT_NEAR(poseLabelLoss(R, t, R, t, src).item<double>(), 0.0, 1e-5);
+  // A pure translation error moves every point by its norm: the loss is that norm.
+  const auto dt = torch::tensor({{0.3f, 0.f, 0.4f}, {0.f, 0.f, 0.5f}});
+  EXPECT_NEAR(poseLabelLoss(R, t + dt, R, t, src).item<double>(), 0.5, 1e-5);
+  // Its gradient pulls the estimate towards the label.
+  auto t_hat = (t + dt).clone().requires_grad_(true);
+  poseLabelLoss(R, t_hat, R, t, src).backward();
+  EXPECT_GT((t_hat.grad() * dt).sum().item<double>(), 0.0);
+}
+
 TEST(WeightedSvd, VanishedWeightsFallBackToUniform) {
   torch::manual_seed(12);
   const auto R = randomRotation(1);

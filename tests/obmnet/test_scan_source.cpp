@@ -194,3 +194,43 @@ TEST(ScanSource, LoopPairsAreRevisitsWithTheirYaw) {
   none.loop_min_separation = 6;
   EXPECT_THROW(apps::scanPairSampler(none, 128), ConfigError);
 }
+
+TEST(ScanSource, PoseLabelsComeFromTheMappingTrajectoryNeverFromGroundTruth) {
+  OBM_REQUIRE_SHARED_DATA("kitti/hdl64_sample/000005.bin");
+  const std::string dir = test::scratchDir("scan_source_labels");
+  const std::string train = makeSequence(dir, "train", true);
+  makeSequence(dir, "val", true);
+  auto cfg = config(dir);
+  cfg.pose_labels = "slam_poses.txt";
+  // Missing labels: the error names the file.
+  try {
+    apps::scanPairSampler(cfg, 256);
+    FAIL();
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("slam_poses.txt"), std::string::npos) << e.what();
+  }
+  // Labels that differ from poses.txt: a trajectory standing still (every pose the identity).
+  {
+    std::ofstream out(fs::path(train) / "slam_poses.txt");
+    for (int i = 0; i < 6; ++i) out << "1 0 0 0 0 1 0 0 0 0 1 0\n";
+  }
+  const auto sampler = apps::scanPairSampler(cfg, 256);
+  std::mt19937_64 rng(3);
+  for (int k = 0; k < 5; ++k) {
+    const auto p = sampler(rng, 1);
+    ASSERT_TRUE(p.has_pose_label) << p.name;
+    // (KITTI's Tr is orthonormal to ~1e-7 only: the camera-to-LiDAR conjugation keeps that.)
+    EXPECT_LT((p.T_target_source_label.matrix() - Eigen::Matrix4d::Identity()).norm(), 1e-5)
+        << p.name << "\n" << p.T_target_source_label.matrix();
+  }
+  // Validation pairs are scored on ground truth and carry no label.
+  for (const auto& p : apps::scanValidationPairs(cfg, 256, 2, 1)) {
+    EXPECT_FALSE(p.has_pose_label) << p.name;
+    EXPECT_GT(p.T_target_source.translation().norm(), 0.5) << p.name;  // the car moves
+  }
+  // Without pose_labels, no pair is labelled (poses.txt only chooses and scores).
+  const auto plain = apps::scanPairSampler(config(dir), 256);
+  EXPECT_FALSE(plain(rng, 1).has_pose_label);
+  auto bad = ConfigNode::fromString("source: kitti\nsequences: [a]\npose_labels: x/y.txt\n", "s.yaml");
+  EXPECT_THROW(apps::ScanSourceConfig::load(bad), ConfigError);
+}

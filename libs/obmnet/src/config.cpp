@@ -11,7 +11,8 @@ ObmNetConfig ObmNetConfig::load(const ConfigNode& node) {
   ObmNetConfig c;
   node.checkKeys({"emb_dims", "dim", "k1", "k2", "n_keypoints", "n_samples", "n_iters", "nn_margin",
                   "loss_margin", "beta", "tau_min", "use_overlap_sampling", "use_bias_prediction",
-                  "use_nmm", "nmm_score_grad", "planar", "voxel_keypoints", "neighbor_loss_nearest", "seed"});
+                  "use_nmm", "nmm_score_grad", "planar", "voxel_keypoints", "neighbor_loss_nearest", "shared_centroid",
+                  "seed"});
   node.get("emb_dims", c.emb_dims);
   node.get("dim", c.dim);
   node.get("k1", c.k1);
@@ -30,6 +31,7 @@ ObmNetConfig ObmNetConfig::load(const ConfigNode& node) {
   node.get("planar", c.planar);
   node.get("voxel_keypoints", c.voxel_keypoints);
   node.get("neighbor_loss_nearest", c.neighbor_loss_nearest);
+  node.get("shared_centroid", c.shared_centroid);
   node.get("seed", c.seed);
   c.validate(node.where());
   return c;
@@ -80,6 +82,7 @@ std::string ObmNetConfig::toYaml() const {
   if (voxel_keypoints) out << YAML::Key << "voxel_keypoints" << YAML::Value << voxel_keypoints;
   if (neighbor_loss_nearest)
     out << YAML::Key << "neighbor_loss_nearest" << YAML::Value << neighbor_loss_nearest;
+  if (shared_centroid) out << YAML::Key << "shared_centroid" << YAML::Value << shared_centroid;
   out << YAML::Key << "seed" << YAML::Value << seed;
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";

@@ -389,12 +389,12 @@ RegistrationPair makeScanPair(const PointCloud& source_scan, const PointCloud& t
 }
 
 PairNormalization PairNormalization::compute(const PointCloud& source, const PointCloud& target,
-                                             double radius) {
+                                             double radius, bool shared) {
   OBM_ASSERT(!source.empty() && !target.empty(), "PairNormalization: empty cloud");
   OBM_ASSERT(radius > 0.0, "PairNormalization: radius must be > 0");
   PairNormalization n;
-  n.centroid_source = source.centroid().cast<double>();
   n.centroid_target = target.centroid().cast<double>();
+  n.centroid_source = shared ? n.centroid_target : source.centroid().cast<double>();
   double r = 0.0;
   for (const auto& p : source.points)
     r = std::max(r, (p.cast<double>() - n.centroid_source).norm());

@@ -70,4 +70,15 @@ torch::Tensor spatialConsistencyLoss(const torch::Tensor& log_match,
   return -rows.amax(2).mean();
 }
 
+torch::Tensor poseLabelLoss(const torch::Tensor& R, const torch::Tensor& t,
+                            const torch::Tensor& R_label, const torch::Tensor& t_label,
+                            const torch::Tensor& src) {
+  OBM_ASSERT(R.dim() == 3 && R.sizes() == R_label.sizes() && t.sizes() == t_label.sizes() &&
+                 src.dim() == 3 && src.size(0) == R.size(0),
+             "poseLabelLoss expects R, R* B×3×3, t, t* B×3 and src B×3×N");
+  // (R − R*) p + (t − t*): B×3×N residuals of the moved source points.
+  const auto r = torch::matmul(R - R_label, src) + (t - t_label).unsqueeze(2);
+  return (r.pow(2).sum(1) + 1e-12).sqrt().mean();
+}
+
 }  // namespace obm::obmnet

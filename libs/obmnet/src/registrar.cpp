@@ -72,7 +72,8 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
     r.target_sampled = randomSubset(target, n, rng);
   }
   const auto norm = obmnet::PairNormalization::compute(r.source_sampled, r.target_sampled,
-                                                       impl_->meta.normalize_radius);
+                                                       impl_->meta.normalize_radius,
+                                                       cfg.shared_centroid);
   PointCloud src = obmnet::neighbourMean(r.source_sampled, impl_->opt.denoise_neighbors);
   PointCloud tgt = obmnet::neighbourMean(r.target_sampled, impl_->opt.denoise_neighbors);
   norm.applySource(src);

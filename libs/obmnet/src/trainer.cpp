@@ -17,6 +17,7 @@
 #include "obm/core/timer.hpp"
 #include "obm/obmnet/collectives.hpp"
 #include "obm/obmnet/distributed.hpp"
+#include "obm/obmnet/losses.hpp"
 #include "obm/obmnet/model.hpp"
 #include "obm/obmnet/model_io.hpp"
 
@@ -30,7 +31,8 @@ TrainConfig TrainConfig::load(const ConfigNode& root) {
   t.checkKeys({"pairs", "val_pairs_protocol", "batch_size", "epochs", "pairs_per_epoch",
                "val_pairs", "lr", "weight_decay", "lr_steps", "lr_gamma", "normalize_radius",
                "recall_deg", "recall_trans", "max_grad_norm", "threads", "seed", "max_hours",
-               "curriculum_epochs", "curriculum_start", "device"});
+               "curriculum_epochs", "curriculum_start", "device", "pose_loss_weight",
+               "select_on"});
   c.protocol = PairProtocol::load(t.child("pairs"));
   c.val_protocol =
       t.has("val_pairs_protocol") ? PairProtocol::load(t.child("val_pairs_protocol")) : c.protocol;
@@ -52,6 +54,19 @@ TrainConfig TrainConfig::load(const ConfigNode& root) {
   t.get("curriculum_epochs", c.curriculum_epochs);
   t.get("curriculum_start", c.curriculum_start);
   t.get("device", c.device);
+  t.get("pose_loss_weight", c.pose_loss_weight);
+  if (!(c.pose_loss_weight >= 0.0))
+    throw ConfigError(t.where("pose_loss_weight") + ": must be >= 0");
+  if (t.has("select_on")) {
+    std::string sel;
+    t.get("select_on", sel);
+    if (sel == "mie_r")
+      c.select_on = TrainConfig::Selection::MieR;
+    else if (sel == "mie_t")
+      c.select_on = TrainConfig::Selection::MieT;
+    else
+      throw ConfigError(t.where("select_on") + ": '" + sel + "': mie_r or mie_t");
+  }
   try {
     const torch::Device dev(c.device);
     if (dev.is_cuda() && !torch::cuda::is_available())
@@ -86,6 +101,8 @@ struct Batch {
   torch::Tensor src, tgt;  ///< B×3×N, B×3×M
   std::vector<RegistrationPair> pairs;
   std::vector<PairNormalization> norms;
+  /// Pose labels in normalised coordinates (B×3×3, B×3); undefined unless every pair has one.
+  torch::Tensor R_label, t_label;
 };
 
 torch::Tensor cloudTensor(const PointCloud& c) {
@@ -96,11 +113,24 @@ torch::Tensor cloudTensor(const PointCloud& c) {
   return t;
 }
 
-Batch makeBatch(std::vector<RegistrationPair> pairs, double radius) {
+Batch makeBatch(std::vector<RegistrationPair> pairs, double radius, bool shared_centroid) {
   Batch b;
-  std::vector<torch::Tensor> s, t;
+  std::vector<torch::Tensor> s, t, Rl, tl;
+  bool labelled = !pairs.empty();
   for (auto& p : pairs) {
-    const auto n = PairNormalization::compute(p.source, p.target, radius);
+    const auto n = PairNormalization::compute(p.source, p.target, radius, shared_centroid);
+    labelled = labelled && p.has_pose_label;
+    if (labelled) {
+      const Isometry3d L = n.normalize(p.T_target_source_label);
+      auto R = torch::empty({3, 3}, torch::kFloat32);
+      auto tt = torch::empty({3}, torch::kFloat32);
+      for (int r = 0; r < 3; ++r) {
+        tt[r] = static_cast<float>(L.translation()[r]);
+        for (int c = 0; c < 3; ++c) R[r][c] = static_cast<float>(L.linear()(r, c));
+      }
+      Rl.push_back(R);
+      tl.push_back(tt);
+    }
     PointCloud src = p.source, tgt = p.target;
     n.applySource(src);
     n.applyTarget(tgt);
@@ -110,6 +140,10 @@ Batch makeBatch(std::vector<RegistrationPair> pairs, double radius) {
   }
   b.src = torch::stack(s);
   b.tgt = torch::stack(t);
+  if (labelled) {
+    b.R_label = torch::stack(Rl);
+    b.t_label = torch::stack(tl);
+  }
   b.pairs = std::move(pairs);
   return b;
 }
@@ -126,7 +160,7 @@ Isometry3d toIsometry(const torch::Tensor& R, const torch::Tensor& t, int64_t i)
 
 std::string csvHeader() {
   return "epoch,lr,loss,loss_global,loss_neighbor,loss_spatial,val_loss,val_mie_r_deg,val_mie_t,"
-         "val_recall,val_mean_alpha,pairs_per_s,wall_s,best,comm_ms_per_step\n";
+         "val_recall,val_mean_alpha,pairs_per_s,wall_s,best,comm_ms_per_step,loss_pose\n";
 }
 
 std::string csvRow(const EpochStats& s) {
@@ -134,7 +168,7 @@ std::string csvRow(const EpochStats& s) {
   os << std::setprecision(8) << s.epoch << ',' << s.lr << ',' << s.loss << ',' << s.loss_global
      << ',' << s.loss_neighbor << ',' << s.loss_spatial << ',' << s.val_loss << ',' << s.val_mie_r
      << ',' << s.val_mie_t << ',' << s.val_recall << ',' << s.val_mean_alpha << ',' << s.pairs_per_s
-     << ',' << s.wall_s << ',' << (s.best ? 1 : 0) << ',' << s.comm_ms_per_step << '\n';
+     << ',' << s.wall_s << ',' << (s.best ? 1 : 0) << ',' << s.comm_ms_per_step << ',' << s.loss_pose << '\n';
   return os.str();
 }
 
@@ -249,13 +283,17 @@ struct Trainer::Impl {
     if (!device.is_cpu()) {
       b.src = b.src.to(device);
       b.tgt = b.tgt.to(device);
+      if (b.R_label.defined()) {
+        b.R_label = b.R_label.to(device);
+        b.t_label = b.t_label.to(device);
+      }
     }
     return b;
   }
 
   /// One optimisation step on this rank's shard `b` of a batch of `global_pairs` pairs; returns
   /// the loss terms, averaged over the whole batch.
-  std::array<double, 4> step(const Batch& b, int global_pairs) {
+  std::array<double, 5> step(const Batch& b, int global_pairs) {
     const int local = static_cast<int>(b.pairs.size());
     // Data-parallel: rank 0's batch-normalisation statistics for every copy (DDP's
     // broadcast_buffers), so that all ranks run the same model.
@@ -269,11 +307,21 @@ struct Trainer::Impl {
     model->train();
     optim->zero_grad();
     const auto o = model->forward(b.src, b.tgt, /*compute_loss=*/true);
-    std::array<double, 4> l{o.loss.item<double>(), o.loss_global.item<double>(),
-                            o.loss_neighbor.item<double>(), o.loss_spatial.item<double>()};
+    torch::Tensor total = o.loss, pose = torch::zeros({}, o.loss.options());
+    if (cfg.pose_loss_weight > 0.0) {
+      if (!b.R_label.defined())
+        throw ConfigError("train.pose_loss_weight > 0, but the training pairs carry no pose label "
+                          "(set data.pose_labels to the mapping app's trajectory of each training "
+                          "sequence; ground truth is never a label)");
+      pose = cfg.pose_loss_weight * poseLabelLoss(o.R, o.t, b.R_label, b.t_label, b.src);
+      total = total + pose;
+    }
+    std::array<double, 5> l{total.item<double>(), o.loss_global.item<double>(),
+                            o.loss_neighbor.item<double>(), o.loss_spatial.item<double>(),
+                            pose.item<double>()};
     bool finite = std::isfinite(l[0]);
     if (finite) {
-      o.loss.backward();
+      total.backward();
       // A degenerate batch (e.g. repeated singular values in the SVD backward) can produce
       // non-finite gradients; one such batch must not destroy the weights.
       for (const auto& p : model->parameters())
@@ -291,14 +339,14 @@ struct Trainer::Impl {
       group->allReduceSum(agg);
       comm_s += tc.seconds();
     }
-    for (int i = 0; i < 4; ++i) l[static_cast<std::size_t>(i)] = agg[static_cast<std::size_t>(2 + i)] / global_pairs;
+    for (std::size_t i = 0; i < l.size(); ++i) l[i] = agg[2 + i] / global_pairs;
     if (agg[0] > 0) {
       ++skipped;
       OBM_LOG_WARN_THROTTLE("obm-train", 10.0,
                             (agg[1] > 0 ? "non-finite loss" : "non-finite gradient")
                                 << "; batch skipped (" << skipped << " so far)");
       optim->zero_grad();
-      if (agg[1] > 0) return {0.0, 0.0, 0.0, 0.0};
+      if (agg[1] > 0) return {0.0, 0.0, 0.0, 0.0, 0.0};
       return l;
     }
     if (group) {
@@ -327,7 +375,7 @@ struct Trainer::Impl {
       std::vector<RegistrationPair> chunk(
           mine.begin() + static_cast<std::ptrdiff_t>(i0),
           mine.begin() + static_cast<std::ptrdiff_t>(std::min(mine.size(), i0 + B)));
-      const Batch b = toDevice(makeBatch(std::move(chunk), cfg.normalize_radius));
+      const Batch b = toDevice(makeBatch(std::move(chunk), cfg.normalize_radius, cfg.model.shared_centroid));
       const auto o = model->forward(b.src, b.tgt, true);
       s.loss += o.loss.item<double>() * static_cast<double>(b.pairs.size());
       for (std::size_t j = 0; j < b.pairs.size(); ++j) {
@@ -455,7 +503,7 @@ std::vector<std::array<double, 3>> Trainer::overfitOneBatch(int steps, int every
   Impl& I = *impl_;
   std::mt19937_64 rng(I.cfg.seed + 4242u);
   const Batch b =
-      I.toDevice(makeBatch(I.drawPairs(rng, I.cfg.batch_size, epoch), I.cfg.normalize_radius));
+      I.toDevice(makeBatch(I.drawPairs(rng, I.cfg.batch_size, epoch), I.cfg.normalize_radius, I.cfg.model.shared_centroid));
   auto meanError = [&](const ObmNetOutput& o) {
     double e = 0.0;
     for (std::size_t j = 0; j < b.pairs.size(); ++j) {
@@ -489,7 +537,7 @@ double Trainer::measureThroughput(int n_batches) {
   // The batches of the last epoch (this rank's shard of each); one warm-up batch (allocations),
   // then timed ones. Pairs per second of the whole run (all ranks).
   auto batch = [&](int k) {
-    return I.toDevice(makeBatch(I.shardOfStep(I.cfg.epochs, k), I.cfg.normalize_radius));
+    return I.toDevice(makeBatch(I.shardOfStep(I.cfg.epochs, k), I.cfg.normalize_radius, I.cfg.model.shared_centroid));
   };
   I.step(batch(0), I.cfg.batch_size);
   Timer t;
@@ -551,7 +599,7 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
                       " but the ranks disagree: every process must see the same output folder");
     }
     if (start_epoch > 0 && writer)
-      OBM_LOG_INFO("obm-train", "resuming after epoch " << start_epoch << " (best val MIE(R) "
+      OBM_LOG_INFO("obm-train", "resuming after epoch " << start_epoch << " (best validation score "
                                                         << best << " deg, " << wall0
                                                         << " s trained)");
   }
@@ -618,12 +666,13 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
         interrupted = true;
         break;
       }
-      const auto l = I.step(I.toDevice(makeBatch(I.shardOfStep(epoch, k), I.cfg.normalize_radius)),
+      const auto l = I.step(I.toDevice(makeBatch(I.shardOfStep(epoch, k), I.cfg.normalize_radius, I.cfg.model.shared_centroid)),
                             I.cfg.batch_size);
       s.loss += l[0];
       s.loss_global += l[1];
       s.loss_neighbor += l[2];
       s.loss_spatial += l[3];
+      s.loss_pose += l[4];
       std::ostringstream st;
       st << std::setprecision(4) << "loss " << s.loss / (k + 1) << "  " << std::setprecision(3)
          << (k + 1) * I.cfg.batch_size / et.seconds() << " pairs/s";
@@ -642,6 +691,7 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
     s.loss_global /= steps;
     s.loss_neighbor /= steps;
     s.loss_spatial /= steps;
+    s.loss_pose /= steps;
     const auto v = I.validate();
     s.val_loss = v.loss;
     s.val_mie_r = v.mie_r;
@@ -649,8 +699,9 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
     s.val_recall = v.recall;
     s.val_mean_alpha = v.mean_alpha;
     s.wall_s = wall0 + wall.seconds();
-    if (v.mie_r < best) {
-      best = v.mie_r;
+    const double score = I.cfg.select_on == TrainConfig::Selection::MieT ? v.mie_t : v.mie_r;
+    if (score < best) {
+      best = score;
       s.best = true;
     }
     if (s.best && writer) {
@@ -662,7 +713,8 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
       // identical clouds would no longer share their points.
       meta.num_points = I.cfg.protocol.num_points;
       meta.description =
-          "epoch " + std::to_string(epoch) + ", val MIE(R) " + std::to_string(v.mie_r) + " deg";
+          "epoch " + std::to_string(epoch) + ", val MIE(R) " + std::to_string(v.mie_r) +
+          " deg, MIE(t) " + std::to_string(v.mie_t);
       saveModel(I.out + "/best.pt", I.model, meta);
     }
     std::ostringstream st;

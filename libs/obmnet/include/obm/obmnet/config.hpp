@@ -56,6 +56,12 @@ struct ObmNetConfig {
   /// L_n in its nearest-neighbour form (neighborhoodLoss, `nearest`), for clouds that do not
   /// share their samples; false = RIENet's pairing by rank. Training only.
   bool neighbor_loss_nearest = false;
+  /// Pair normalisation about one centre (the target's centroid) for both clouds, instead of
+  /// each cloud about its own. Scans in their sensor frame: two sweeps a metre apart then start
+  /// the network a metre off (the identity), where separate centroids start it at the offset of
+  /// the two centroids, which moves with what enters and leaves the sensor's range (metres on a
+  /// street). Recorded with the weights so that inference normalises as training did.
+  bool shared_centroid = false;
   /// Seed of the Gumbel noise. Training draws a fresh stream from it; every forward pass in eval
   /// mode re-seeds, so registering the same pair twice gives the same result.
   std::uint64_t seed = 0;

@@ -79,6 +79,11 @@ struct RegistrationPair {
   /// with independent samplings, the fraction of source points inside the target's crop region.
   double overlap = 1.0;
   std::string name;  ///< object name (or sequence/frame ids)
+  /// A pose label that is *not* ground truth, for self-supervised training (train.
+  /// pose_loss_weight): the relative pose of the two scans in the trajectory the mapping app
+  /// estimated on the training sequence (`data.pose_labels`). Unset for every other pair.
+  bool has_pose_label = false;
+  Isometry3d T_target_source_label = Isometry3d::Identity();
 };
 
 /// Makes a pair from `cloud` (already normalised, e.g. to the unit sphere): draws
@@ -113,8 +118,9 @@ PointCloud voxelKeypoints(const PointCloud& cloud, std::size_t n, std::mt19937_6
 PointCloud neighbourMean(const PointCloud& cloud, int k);
 
 /// The normalisation applied to a pair before the network sees it, identical in training and at
-/// inference: each cloud is centred on its own centroid and both are scaled by one factor s so
-/// that the farther of the two is within radius `radius` (the geometry of the training data).
+/// inference: each cloud is centred on its own centroid (or both on the target's, `shared`) and
+/// both are scaled by one factor s so that the farther of the two is within radius `radius` (the
+/// geometry of the training data).
 /// Undo: T_target_source = T(c_t) · S⁻¹ · T̂ · S · T(−c_s).
 struct PairNormalization {
   Eigen::Vector3d centroid_source = Eigen::Vector3d::Zero();
@@ -122,8 +128,9 @@ struct PairNormalization {
   double scale = 1.0;  ///< s: normalised = s · (p − c)
 
   /// Computes the normalisation of (source, target) for the given radius (e.g. 1 for objects).
+  /// `shared`: one centre for both clouds (ObmNetConfig::shared_centroid).
   static PairNormalization compute(const PointCloud& source, const PointCloud& target,
-                                   double radius);
+                                   double radius, bool shared = false);
   /// Applies it (in place) to a source / target cloud.
   void applySource(PointCloud& c) const;
   void applyTarget(PointCloud& c) const;

@@ -44,4 +44,12 @@ torch::Tensor neighborhoodLoss(const torch::Tensor& src, const torch::Tensor& tg
 torch::Tensor spatialConsistencyLoss(const torch::Tensor& log_match,
                                      const torch::Tensor& keypoints);
 
+/// L_p, the pose-label term of self-supervised training (not one of the paper's losses): the mean
+/// over the batch and the source points p of ‖(R p + t) − (R* p + t*)‖, with (R, t) the estimate
+/// (B×3×3, B×3), (R*, t*) the label and `src` the normalised source (B×3×N). A distance on the
+/// points rather than on the parameters weighs rotation by the cloud's extent, as L_g does.
+torch::Tensor poseLabelLoss(const torch::Tensor& R, const torch::Tensor& t,
+                            const torch::Tensor& R_label, const torch::Tensor& t_label,
+                            const torch::Tensor& src);
+
 }  // namespace obm::obmnet

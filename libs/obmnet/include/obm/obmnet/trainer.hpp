@@ -51,6 +51,16 @@ struct TrainConfig {
   /// warm-started model at 40 % of the target's jitter and crop, where it still matches.
   double curriculum_start = 0.0;
 
+  /// Weight of the pose-label term L_p (self-supervision, not part of the paper's losses): the
+  /// mean distance, on the normalised source, between the points moved by the estimate and by
+  /// the pair's pose label (RegistrationPair::T_target_source_label: the mapping app's own
+  /// trajectory of the training sequence, never ground truth). 0 = the paper's unsupervised
+  /// L_g + L_n + L_s only. > 0 needs every training pair to carry a label.
+  double pose_loss_weight = 0.0;
+  /// The validation score that chooses best.pt (lower is better).
+  enum class Selection { MieR, MieT };
+  Selection select_on = Selection::MieR;
+
   /// Where the network trains: "cpu" or "cuda:K" (a LibTorch build with CUDA; checked at load).
   std::string device = "cpu";
   static TrainConfig load(const ConfigNode& root);
@@ -61,6 +71,7 @@ struct EpochStats {
   int epoch = 0;
   double lr = 0.0;
   double loss = 0.0, loss_global = 0.0, loss_neighbor = 0.0, loss_spatial = 0.0;
+  double loss_pose = 0.0;  ///< weighted L_p (0 without pose labels); included in `loss`
   double val_loss = 0.0, val_mie_r = 0.0, val_mie_t = 0.0, val_recall = 0.0, val_mean_alpha = 0.0;
   double pairs_per_s = 0.0;
   double wall_s = 0.0;  ///< cumulated training wall time at the end of this epoch
