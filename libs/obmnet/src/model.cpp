@@ -157,4 +157,8 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
   return out;
 }
 
+void ObmNetImpl::seedTrainingNoise(std::uint64_t seed) {
+  train_gen_ = at::make_generator<at::CPUGeneratorImpl>(seed);
+}
+
 }  // namespace obm

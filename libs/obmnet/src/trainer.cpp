@@ -293,6 +293,17 @@ struct Trainer::Impl {
 
   /// One optimisation step on this rank's shard `b` of a batch of `global_pairs` pairs; returns
   /// the loss terms, averaged over the whole batch.
+  /// The Gumbel noise of step k of `epoch` on this rank: its own stream, independent of what ran
+  /// before in this process (a resumed run continues bit-identically).
+  std::uint64_t noiseSeed(int epoch, int k) const {
+    std::seed_seq ss{static_cast<std::uint32_t>(cfg.seed), static_cast<std::uint32_t>(cfg.seed >> 32),
+                     static_cast<std::uint32_t>(epoch), static_cast<std::uint32_t>(k),
+                     static_cast<std::uint32_t>(rank()), 0x6e6f6973u /* "nois" */};
+    std::uint32_t v[2];
+    ss.generate(v, v + 2);
+    return (static_cast<std::uint64_t>(v[0]) << 32) | v[1];
+  }
+
   std::array<double, 5> step(const Batch& b, int global_pairs) {
     const int local = static_cast<int>(b.pairs.size());
     // Data-parallel: rank 0's batch-normalisation statistics for every copy (DDP's
@@ -666,6 +677,7 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
         interrupted = true;
         break;
       }
+      I.model->seedTrainingNoise(I.noiseSeed(epoch, k));
       const auto l = I.step(I.toDevice(makeBatch(I.shardOfStep(epoch, k), I.cfg.normalize_radius, I.cfg.model.shared_centroid)),
                             I.cfg.batch_size);
       s.loss += l[0];

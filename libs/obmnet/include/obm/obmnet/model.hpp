@@ -44,6 +44,11 @@ class ObmNetImpl : public torch::nn::Module {
 
   const ObmNetConfig& config() const { return config_; }
 
+  /// Restarts the train-mode Gumbel noise stream from `seed`. The trainer seeds it per step from
+  /// (seed, epoch, step, rank), so a run resumed from a checkpoint draws the noise the
+  /// uninterrupted run drew, and ends on the same weights bit for bit.
+  void seedTrainingNoise(std::uint64_t seed);
+
  private:
   ObmNetConfig config_;
   obmnet::DenseEdgeConv extractor_{nullptr};
