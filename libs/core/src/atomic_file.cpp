@@ -35,13 +35,25 @@ void writeFileAtomically(const std::string& path, const std::function<void(std::
   if (!parent.empty() && !fs::is_directory(parent))
     throw IoError("cannot write '" + path + "': folder '" + parent.string() + "' does not exist");
   const std::string tmp = temporaryPathFor(path);
+  // Why a write failed, as the system said it (errno of the failing write: "No space left on
+  // device", "Disk quota exceeded", …), with the space left on the file system.
+  auto failure = [&](int err, const char* what) {
+    std::string msg = "cannot write '" + path + "': " + what;
+    if (err != 0) msg += std::string(": ") + std::strerror(err);
+    std::error_code ec;
+    const auto space = fs::space(parent.empty() ? fs::path(".") : parent, ec);
+    if (!ec) msg += " (" + std::to_string(space.available / 1024) + " KiB free on its file system)";
+    return IoError(msg);
+  };
   try {
+    errno = 0;
     std::ofstream os(tmp, binary ? std::ios::binary | std::ios::out : std::ios::out);
-    if (!os) throw IoError("cannot write '" + path + "': cannot open a temporary file in its folder");
+    if (!os) throw failure(errno, "cannot open a temporary file in its folder");
     writer(os);
     os.flush();
-    if (!os) throw IoError("cannot write '" + path + "': write failed (disk full?)");
+    if (!os) throw failure(errno, "write failed");
     os.close();
+    if (os.fail()) throw failure(errno, "closing the file failed");
   } catch (...) {
     std::remove(tmp.c_str());
     throw;

@@ -319,8 +319,7 @@ void OccupancyMap::writeBinary(const std::string& path) {
           os << "data\n";
           tree.writeBinaryData(os);
         });
-        const bool ok = static_cast<bool>(os);
-        if (!ok) throw IoError("cannot write '" + path + "': OctoMap's binary writer failed");
+        // A failed stream (full disk) is reported by writeFileAtomically with the system's reason.
       },
       /*binary=*/true);
 }
@@ -332,7 +331,8 @@ void OccupancyMap::writeFull(const std::string& path) {
       path,
       [&](std::ostream& os) {
         const bool ok = m.visit([&](auto& tree) { return tree.write(os); });
-        if (!ok) throw IoError("cannot write '" + path + "': OctoMap's writer failed");
+        // A failed stream is reported by writeFileAtomically with the system's reason.
+        if (!ok && os) throw IoError("cannot write '" + path + "': OctoMap's writer failed");
       },
       /*binary=*/true);
 }

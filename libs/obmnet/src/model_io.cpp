@@ -1,6 +1,7 @@
 #include "obm/obmnet/model_io.hpp"
 
 #include <filesystem>
+#include <sstream>
 
 #include "obm/config/config_node.hpp"
 #include "obm/core/atomic_file.hpp"
@@ -12,6 +13,20 @@ namespace {
 constexpr const char* kFormatTag = "obmslam-obmnet-v1";
 }
 
+void saveArchiveAtomically(torch::serialize::OutputArchive& archive, const std::string& path,
+                           const std::string& what) {
+  std::ostringstream bytes(std::ios::out | std::ios::binary);
+  try {
+    archive.save_to(bytes);
+  } catch (const c10::Error& e) {
+    throw IoError(path + ": cannot serialise " + what + " (" + e.what_without_backtrace() + ")");
+  }
+  const std::string data = bytes.str();
+  writeFileAtomically(
+      path, [&](std::ostream& os) { os.write(data.data(), static_cast<std::streamsize>(data.size())); },
+      /*binary=*/true);
+}
+
 void saveModel(const std::string& path, ObmNet& model, const ModelMeta& meta) {
   torch::serialize::OutputArchive archive;
   archive.write("format", c10::IValue(std::string(kFormatTag)));
@@ -20,14 +35,7 @@ void saveModel(const std::string& path, ObmNet& model, const ModelMeta& meta) {
   archive.write("num_points", c10::IValue(static_cast<int64_t>(meta.num_points)));
   archive.write("description", c10::IValue(meta.description));
   model->save(archive);
-  const std::string tmp = temporaryPathFor(path);
-  try {
-    archive.save_to(tmp);
-  } catch (const c10::Error& e) {
-    std::filesystem::remove(tmp);
-    throw IoError(path + ": cannot write the model (" + e.what_without_backtrace() + ")");
-  }
-  commitTemporaryFile(tmp, path);
+  saveArchiveAtomically(archive, path, "the model");
 }
 
 ObmNet loadModel(const std::string& path, ModelMeta* meta) {

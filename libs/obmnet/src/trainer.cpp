@@ -431,9 +431,7 @@ struct Trainer::Impl {
     a.write("epoch", c10::IValue(static_cast<int64_t>(epoch)));
     a.write("best_val_mie_r", c10::IValue(best));
     a.write("wall_s", c10::IValue(wall_s));
-    const std::string tmp = temporaryPathFor(ckptPath());
-    a.save_to(tmp);
-    commitTemporaryFile(tmp, ckptPath());
+    saveArchiveAtomically(a, ckptPath(), "the checkpoint");
   }
 
   /// Returns (epoch done, best, wall) or epoch 0 when there is no checkpoint.

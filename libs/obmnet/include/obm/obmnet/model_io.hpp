@@ -16,6 +16,13 @@ struct ModelMeta {
   std::string description;        ///< free text (protocol, data) shown by tools
 };
 
+/// Serialises `archive` in memory, then writes the bytes atomically to `path` (temporary file +
+/// rename). LibTorch's own file writer throws from a destructor when the disk fills up, which
+/// ends the process; here a full disk is an IoError naming `path` and the system's reason, and
+/// no half-written file is left. `what` names the file's role in the error ("the model").
+void saveArchiveAtomically(torch::serialize::OutputArchive& archive, const std::string& path,
+                           const std::string& what);
+
 /// Writes the model atomically (temporary file + rename). Throws IoError naming `path`.
 void saveModel(const std::string& path, ObmNet& model, const ModelMeta& meta);
 
