@@ -5,7 +5,8 @@
 # What must hold (docs/obm-map.md, docs/obm-sim.md, docs/training.md):
 #  - every output file that exists is complete and readable (written atomically), whatever the
 #    signal; SIGINT / SIGTERM exit with 130 after writing what was processed (obm-map) or leave
-#    nothing (obm-sim, whose folder appears whole or not at all);
+#    nothing (obm-sim, whose folder appears whole or not at all); a SIGKILLed obm-map keeps the
+#    trajectories of its last autosave (output.autosave_s);
 #  - a training killed by SIGKILL and resumed logs the very numbers of an uninterrupted run;
 #  - a full disk is a clear error naming the file and the system's reason, exit code 1, and no
 #    half-written file is left;
@@ -91,7 +92,9 @@ done
 for sig in INT TERM KILL INT TERM KILL; do
   delay=$(awk -v r=$RANDOM 'BEGIN { printf "%.2f", 0.5 + 5.5 * r / 32767 }')
   out="$work/map_${sig}_$RANDOM"
-  "$bin/obm-map" -c config/map_kitti.yaml -i "$seq" -o "$out" -q --log-level error > "$out.log" 2>&1 &
+  # Trajectories saved every 0.5 s (output.autosave_s; 60 s by default): what a SIGKILL leaves.
+  "$bin/obm-map" -c config/map_kitti.yaml -i "$seq" -o "$out" -q --log-level error \
+    --set output.autosave_s=0.5 > "$out.log" 2>&1 &
   pid=$!
   sleep "$delay"
   kill -s "$sig" "$pid" 2> /dev/null || true
@@ -109,7 +112,13 @@ for sig in INT TERM KILL INT TERM KILL; do
         grep -q '"interrupted": *true' "$out/metrics.json" || fail "obm-map SIG$sig: metrics.json must say interrupted"
       fi
       [[ $(temporaries "$out") -eq 0 ]] || fail "obm-map SIG$sig left temporary files" ;;
-    KILL) [[ $rc -eq 137 || $rc -eq 0 ]] || fail "obm-map SIGKILL: exit $rc" ;;
+    KILL) [[ $rc -eq 137 || $rc -eq 0 ]] || fail "obm-map SIGKILL: exit $rc"
+          # Killed a while into the run: the last autosave holds the poses of the frames before.
+          if [[ $rc -eq 137 ]] && awk -v d="$delay" 'BEGIN { exit !(d >= 2.5) }'; then
+            [[ -s "$out/trajectory_tum.txt" && -s "$out/trajectory_kitti.txt" ]] \
+              || fail "obm-map SIGKILL after ${delay} s: no autosaved trajectory"
+            echo "  autosaved: $(grep -vc '^#' "$out/trajectory_tum.txt") poses"
+          fi ;;
   esac
 done
 

@@ -153,6 +153,22 @@ RunSummary MappingApp::run() {
     std::size_t points_in, points_used;
   };
   std::vector<FrameRow> frame_rows;
+  const io::KittiCalib* calib = source->kittiCalib();
+  // The two trajectories as the run ends writes them (every frame, the current estimates).
+  auto writeTrajectories = [&](bool record) {
+    const std::vector<Isometry3d> traj = fe.trajectory();
+    const std::vector<double> stamps = fe.timestamps();
+    const std::string tum = (out / "trajectory_tum.txt").string(),
+                      kitti = (out / "trajectory_kitti.txt").string();
+    io::writeTumTrajectory(tum, io::stampPoses(traj, stamps));
+    io::writeKittiTrajectory(kitti,
+                             calib ? io::lidarToCameraPoses(traj, calib->T_cam0_velo) : traj);
+    if (record) {
+      sum.files.push_back(tum);
+      sum.files.push_back(kitti);
+    }
+  };
+  Timer since_save;
   while (options_.max_frames == 0 || n < options_.max_frames) {
     if (options_.cancel && options_.cancel->load()) {
       sum.interrupted = true;
@@ -177,6 +193,11 @@ RunSummary MappingApp::run() {
     status << "kf " << st.keyframes << " loops " << st.loops_accepted;
     if (st.bridged > 0) status << " bridged " << st.bridged;
     bar.update(n, status.str());
+    if (cfg.output.autosave_s > 0.0 && since_save.seconds() >= cfg.output.autosave_s) {
+      ScopedStage s(app_times, "autosave");  // the folder exists: checkWritable made it
+      writeTrajectories(false);
+      since_save.reset();
+    }
   }
   fe.finish();
   const auto& st = fe.stats();
@@ -193,15 +214,12 @@ RunSummary MappingApp::run() {
   Timer output_timer;
   const std::vector<Isometry3d> traj = fe.trajectory();
   const std::vector<double> stamps = fe.timestamps();
-  const io::KittiCalib* calib = source->kittiCalib();
   auto file = [&](const std::string& name) {
     const std::string p = (out / name).string();
     sum.files.push_back(p);
     return p;
   };
-  io::writeTumTrajectory(file("trajectory_tum.txt"), io::stampPoses(traj, stamps));
-  io::writeKittiTrajectory(file("trajectory_kitti.txt"),
-                           calib ? io::lidarToCameraPoses(traj, calib->T_cam0_velo) : traj);
+  writeTrajectories(true);
   {
     io::Trajectory kfs;
     for (const auto& kf : fe.keyframes()) kfs.push_back({kf.timestamp, kf.T_world_sensor});

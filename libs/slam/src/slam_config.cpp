@@ -56,13 +56,15 @@ void OutputParams::validate() const {
           "map_rebuild_rotation_deg", "must be >= 0 [deg]");
   require(png_max_pixels >= 64, "png_max_pixels", "must be >= 64");
   require(std::isfinite(scene_voxel) && scene_voxel > 0.0, "scene_voxel", "must be > 0 [m]");
+  require(std::isfinite(autosave_s) && autosave_s >= 0.0, "autosave_s", "must be >= 0 [s]");
 }
 
 OutputParams OutputParams::load(const ConfigNode& node) {
   node.checkKeys({"map", "pictures", "map_every", "map_cloud_voxel", "map_rebuild_translation",
                   "map_rebuild_rotation_deg", "png_z_max", "png_max_pixels", "mrpt",
-                  "scene_voxel"});
+                  "scene_voxel", "autosave_s"});
   OutputParams p;
+  node.get("autosave_s", p.autosave_s);
   node.get("map", p.map);
   node.get("mrpt", p.mrpt);
   node.get("scene_voxel", p.scene_voxel);

@@ -54,6 +54,10 @@ struct OutputParams {
   bool mrpt = true;
   /// [m] voxel of the map points drawn in scene.3Dscene (the keyframe clouds, merged).
   double scene_voxel = 0.5;
+  /// [s] while the run goes on, trajectory_tum.txt and trajectory_kitti.txt are rewritten
+  /// (atomically) with every frame so far at this interval, so that a run killed without a chance
+  /// to write (SIGKILL, out of memory, power) keeps its poses up to the last save; 0 = off.
+  double autosave_s = 60.0;
 
   static OutputParams load(const ConfigNode& node);
   void validate() const;
