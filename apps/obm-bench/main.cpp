@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "../common/cli.hpp"
 #include "../common/object_source.hpp"
 #include "../common/scan_source.hpp"
 #include "../common/paths.hpp"
@@ -192,7 +193,8 @@ int main(int argc, char** argv) {
       "Pairs come from --pairs DIR (pair_NNNN_src.ply, pair_NNNN_tgt.ply, gt.txt: id + 12 numbers "
       "of\n"
       "T_tgt_src row-major) or are generated from the object set by --protocol and --group."};
-  std::string pairs_dir, json_out, md_out, per_pair_out, write_pairs, methods_arg, ablation, log_level = "warn";
+  std::string pairs_dir, json_out, md_out, per_pair_out, write_pairs, methods_arg, ablation,
+      log_level;
   std::string config_path = "", model = "";
   std::string protocol = "clean", group = "unseen";
   int n_pairs = 200, threads = 2, num_points = -1, denoise = 0;
@@ -274,10 +276,10 @@ int main(int argc, char** argv) {
                  "K nearest neighbours (0 = off; for jittered clouds)")
       ->capture_default_str();
   app.add_flag("-q,--quiet", quiet, "no progress bars");
-  app.add_option("--log-level", log_level, "debug|info|warn|error")->capture_default_str();
+  apps::addLogLevelOption(app, log_level, "warn");
   CLI11_PARSE(app, argc, argv);
 
-  try {
+  return apps::runMain("obm-bench", apps::OtherExceptions::Error, [&] {
     setLogLevel(parseLogLevel(log_level));
     if (model.empty()) {
       // The model of the data's kind; pairs of unknown origin (--pairs) and noisy protocols get
@@ -485,8 +487,5 @@ int main(int argc, char** argv) {
     if (!per_pair_out.empty())
       writeTextAtomically(per_pair_out, bench::perPairCsv(pairs, scores, recall));
     return 0;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "obm-bench: error: %s\n", e.what());
-    return 1;
-  }
+  });
 }

@@ -6,6 +6,7 @@
 #include <memory>
 #include <optional>
 
+#include "../common/cli.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
 #include "obm/core/progress.hpp"
@@ -43,10 +44,9 @@ int main(int argc, char** argv) {
       "between PLY and PCD. Every output is written atomically (a failed run leaves no partial "
       "file)."};
   app.require_subcommand(1);
-  std::string log_level = "warn";
+  std::string log_level;
   bool quiet = false;
-  app.add_option("--log-level", log_level, "debug, info, warn, error or off")
-      ->capture_default_str();
+  obm::apps::addLogLevelOption(app, log_level, "warn");
   app.add_flag("-q,--quiet", quiet, "no progress bar");
 
   // ---- kitti2rawlog
@@ -144,7 +144,7 @@ int main(int argc, char** argv) {
 
   CLI11_PARSE(app, argc, argv);
 
-  try {
+  return obm::apps::runMain("obm-convert", [&] {
     obm::setLogLevel(obm::parseLogLevel(log_level));
     if (*k2r) {
       LazyProgress p{"kitti2rawlog", "scans", !quiet, nullptr};
@@ -199,11 +199,5 @@ int main(int argc, char** argv) {
       std::cout << "\n";
     }
     return 0;
-  } catch (const obm::Error& e) {
-    std::cerr << "obm-convert: error: " << e.what() << "\n";
-    return 1;
-  } catch (const std::exception& e) {
-    std::cerr << "obm-convert: unexpected error: " << e.what() << "\n";
-    return 2;
-  }
+  });
 }

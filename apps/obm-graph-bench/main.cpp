@@ -9,6 +9,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "../common/cli.hpp"
 #include "obm/backend/graph_io.hpp"
 #include "obm/backend/metrics.hpp"
 #include "obm/backend/optimizer.hpp"
@@ -123,7 +124,7 @@ int main(int argc, char** argv) {
   app.add_option("--out", out_md, "also write the Markdown to this file (atomically)");
   CLI11_PARSE(app, argc, argv);
 
-  try {
+  return apps::runMain("obm-graph-bench", apps::OtherExceptions::Error, [&] {
     setLogLevel(LogLevel::Warn);
     ensureDirectory(work);
     Options ours;
@@ -274,8 +275,5 @@ int main(int argc, char** argv) {
     std::cout << md.str();
     if (!out_md.empty()) writeTextAtomically(out_md, md.str());
     return 0;
-  } catch (const std::exception& e) {
-    std::cerr << "obm-graph-bench: error: " << e.what() << "\n";
-    return 1;
-  }
+  });
 }

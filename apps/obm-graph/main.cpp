@@ -2,6 +2,7 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 
+#include "../common/cli.hpp"
 #include "obm/backend/graph_tool.hpp"
 #include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
@@ -12,7 +13,7 @@ int main(int argc, char** argv) {
   CLI::App app{
       "obm-graph: optimises a pose graph (g2o .g2o or TORO/MRPT .graph, 2D or 3D detected from the "
       "file) by minimising g2o's chi2 with Ceres, and writes the optimised graph atomically."};
-  std::string input, output, report, config, init, robust, log_level = "warn";
+  std::string input, output, report, config, init, robust, log_level;
   int max_iters = -1, threads = -1;
   std::vector<long long> fix;
   bool repair = false, quiet = false;
@@ -40,10 +41,10 @@ int main(int argc, char** argv) {
                "clamp negative eigenvalues of information matrices (with a warning) instead of "
                "rejecting the file");
   app.add_flag("-q,--quiet", quiet, "no per-iteration lines");
-  app.add_option("--log-level", log_level, "debug, info, warn, error or off [default: warn]");
+  obm::apps::addLogLevelOption(app, log_level, "warn");
   CLI11_PARSE(app, argc, argv);
 
-  try {
+  return obm::apps::runMain("obm-graph", [&] {
     obm::setLogLevel(obm::parseLogLevel(log_level));
     GraphToolConfig cfg;
     if (!config.empty()) cfg = GraphToolConfig::load(obm::ConfigNode::loadFile(config));
@@ -60,11 +61,5 @@ int main(int argc, char** argv) {
     GraphTool tool(cfg);
     tool.run(std::cout);
     return 0;
-  } catch (const obm::Error& e) {
-    std::cerr << "obm-graph: error: " << e.what() << "\n";
-    return 1;
-  } catch (const std::exception& e) {
-    std::cerr << "obm-graph: unexpected error: " << e.what() << "\n";
-    return 2;
-  }
+  });
 }

@@ -1,24 +1,15 @@
 // obm-map: rawlog / KITTI / TUM playback mapping (docs/obm-map.md). The logic is
 // obm::slam::MappingApp; this file only parses the command line.
 #include <CLI/CLI.hpp>
-#include <atomic>
-#include <csignal>
 #include <iostream>
-
 #include <string>
 #include <vector>
 
+#include "../common/cli.hpp"
 #include "obm/config/overrides.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
 #include "obm/slam/mapping_app.hpp"
-
-namespace {
-std::atomic<bool> g_cancel{false};
-extern "C" void onSignal(int) {
-  g_cancel = true;
-}
-}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -36,7 +27,7 @@ int main(int argc, char** argv) {
       "ICL-NUIM, 7-Scenes, Redwood) or an MRPT .rawlog (ground truth groundtruth.txt next to "
       "it).\nCtrl-C stops after the current frame and writes everything processed so far."};
   obm::slam::MappingAppOptions opt;
-  std::string config, log_level = "warn", matcher;
+  std::string config, log_level, matcher;
   bool quiet = false, no_map = false, no_loops = false;
   app.add_option("-c,--config", config,
                  "YAML configuration (config/map_kitti.yaml for LiDAR, config/map_indoor.yaml for "
@@ -62,10 +53,10 @@ int main(int argc, char** argv) {
   app.add_flag("--no-loops", no_loops, "disable loop closure (odometry only)");
   app.add_flag("--no-map", no_map, "do not build the OctoMap (map.bt, map.ot, map_topview.png)");
   app.add_flag("-q,--quiet", quiet, "no progress bar");
-  app.add_option("--log-level", log_level, "debug, info, warn, error or off [default: warn]");
+  obm::apps::addLogLevelOption(app, log_level, "warn");
   CLI11_PARSE(app, argc, argv);
 
-  try {
+  return obm::apps::runMain("obm-map", [&] {
     obm::setLogLevel(obm::parseLogLevel(log_level));
     auto root = obm::ConfigNode::loadFile(config);
     obm::applyOverrides(root, overrides);
@@ -82,9 +73,7 @@ int main(int argc, char** argv) {
     if (no_loops) cfg.frontend.loop_closure.enabled = false;
     if (no_map) cfg.output.map = false;
     opt.progress = !quiet;
-    opt.cancel = &g_cancel;
-    std::signal(SIGINT, onSignal);
-    std::signal(SIGTERM, onSignal);
+    opt.cancel = &obm::apps::installCancelHandler();
 
     obm::slam::MappingApp mapping_app(std::move(cfg), opt);
     const obm::slam::RunSummary summary = mapping_app.run();
@@ -95,11 +84,5 @@ int main(int argc, char** argv) {
       return 130;
     }
     return 0;
-  } catch (const obm::Error& e) {
-    std::cerr << "obm-map: error: " << e.what() << "\n";
-    return 1;
-  } catch (const std::exception& e) {
-    std::cerr << "obm-map: unexpected error: " << e.what() << "\n";
-    return 2;
-  }
+  });
 }

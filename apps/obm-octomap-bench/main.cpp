@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "../common/cli.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
 #include "obm/core/timer.hpp"
@@ -68,7 +69,7 @@ int main(int argc, char** argv) {
   app.add_option("--max-scans", max_scans, "use at most N scans (0 = all) [default: 0]");
   CLI11_PARSE(app, argc, argv);
 
-  try {
+  return obm::apps::runMain("obm-octomap-bench", obm::apps::OtherExceptions::Error, [&] {
     obm::setLogLevel(obm::LogLevel::Warn);
     std::vector<std::string> files;
     for (const auto& e : std::filesystem::directory_iterator(scans_dir))
@@ -145,8 +146,5 @@ int main(int argc, char** argv) {
       std::cout.flush();
     }
     return 0;
-  } catch (const std::exception& e) {
-    std::cerr << "obm-octomap-bench: error: " << e.what() << "\n";
-    return 1;
-  }
+  });
 }

@@ -1,21 +1,15 @@
 // obm-octomap: builds an OctoMap .bt / .ot from a sequence and a trajectory (docs/obm-octomap.md).
 #include <CLI/CLI.hpp>
-#include <atomic>
-#include <csignal>
 #include <iostream>
 #include <sstream>
 
+#include "../common/cli.hpp"
 #include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
 #include "obm/mapping/octomap_exporter.hpp"
 
 namespace {
-std::atomic<bool> g_cancel{false};
-extern "C" void onSignal(int) {
-  g_cancel = true;
-}
-
 std::string fmt(double v) {
   std::ostringstream os;
   os << v;
@@ -38,7 +32,7 @@ int main(int argc, char** argv) {
       "obm-map output folder holding trajectory_kitti.txt / trajectory_tum.txt.\n"
       "Ctrl-C stops after the current scan and writes the map integrated so far."};
   obm::mapping::ExporterOptions opt;
-  std::string format = "auto", config, log_level = "warn";
+  std::string format = "auto", config, log_level;
   double resolution = -1.0, max_range = -1.0, min_range = -1.0, voxel = -1.0;
   bool quiet = false, no_discretize = false;
   app.add_option("-i,--input", opt.input, "sequence folder (KITTI or RGB-D) or MRPT .rawlog")
@@ -88,43 +82,42 @@ int main(int argc, char** argv) {
                  "YAML file with a 'mapping:' section (all MappingParams keys, see "
                  "config/octomap.yaml); flags override it");
   app.add_flag("-q,--quiet", quiet, "no progress bar");
-  app.add_option("--log-level", log_level, "debug, info, warn, error or off [default: warn]");
+  obm::apps::addLogLevelOption(app, log_level, "warn");
   CLI11_PARSE(app, argc, argv);
 
-  try {
-    obm::setLogLevel(obm::parseLogLevel(log_level));
-    if (!config.empty()) {
-      const obm::ConfigNode root = obm::ConfigNode::loadFile(config);
-      root.checkKeys({"mapping"});
-      opt.mapping = MappingParams::load(root.child("mapping"));
-    }
-    if (resolution >= 0.0) opt.mapping.resolution = resolution;
-    if (max_range >= 0.0) opt.mapping.max_range = max_range;
-    if (min_range >= 0.0) opt.mapping.min_range = min_range;
-    if (voxel >= 0.0) opt.mapping.prefilter_voxel = voxel;
-    if (no_discretize) opt.mapping.discretize = false;
-    opt.format = obm::mapping::parseTrajectoryFormat(format);
-    opt.top_view.use_voxel_color = opt.color;
-    opt.progress = !quiet;
-    opt.cancel = &g_cancel;
-    std::signal(SIGINT, onSignal);
-    std::signal(SIGTERM, onSignal);
+  return obm::apps::runMain("obm-octomap", [&] {
+    // An obm::Error here (bad input, found before the first scan) also says that nothing was
+    // written; other exceptions are runMain's "unexpected error", exit code 2.
+    try {
+      obm::setLogLevel(obm::parseLogLevel(log_level));
+      if (!config.empty()) {
+        const obm::ConfigNode root = obm::ConfigNode::loadFile(config);
+        root.checkKeys({"mapping"});
+        opt.mapping = MappingParams::load(root.child("mapping"));
+      }
+      if (resolution >= 0.0) opt.mapping.resolution = resolution;
+      if (max_range >= 0.0) opt.mapping.max_range = max_range;
+      if (min_range >= 0.0) opt.mapping.min_range = min_range;
+      if (voxel >= 0.0) opt.mapping.prefilter_voxel = voxel;
+      if (no_discretize) opt.mapping.discretize = false;
+      opt.format = obm::mapping::parseTrajectoryFormat(format);
+      opt.top_view.use_voxel_color = opt.color;
+      opt.progress = !quiet;
+      opt.cancel = &obm::apps::installCancelHandler();
 
-    obm::mapping::OctomapExporter exporter(opt);
-    const auto summary = exporter.run();
-    std::cout << obm::mapping::formatSummary(summary);
-    if (summary.interrupted) {
-      std::cerr << "obm-octomap: interrupted; wrote the " << summary.frames_integrated << " of "
-                << summary.frames_selected << " frames integrated so far to '" << summary.output
-                << "'\n";
-      return 130;
+      obm::mapping::OctomapExporter exporter(opt);
+      const auto summary = exporter.run();
+      std::cout << obm::mapping::formatSummary(summary);
+      if (summary.interrupted) {
+        std::cerr << "obm-octomap: interrupted; wrote the " << summary.frames_integrated << " of "
+                  << summary.frames_selected << " frames integrated so far to '" << summary.output
+                  << "'\n";
+        return 130;
+      }
+      return 0;
+    } catch (const obm::Error& e) {
+      std::cerr << "obm-octomap: error: " << e.what() << "\nnothing was written\n";
+      return 1;
     }
-    return 0;
-  } catch (const obm::Error& e) {
-    std::cerr << "obm-octomap: error: " << e.what() << "\nnothing was written\n";
-    return 1;
-  } catch (const std::exception& e) {
-    std::cerr << "obm-octomap: unexpected error: " << e.what() << "\n";
-    return 2;
-  }
+  });
 }

@@ -11,6 +11,7 @@
 #include <sstream>
 #include <thread>
 
+#include "../common/cli.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
 #include "obm/core/timer.hpp"
@@ -89,7 +90,7 @@ int main(int argc, char** argv) {
   app.add_option("--tmp", tmp_dir, "folder for the end-to-end outputs (removed afterwards)");
   CLI11_PARSE(app, argc, argv);
 
-  try {
+  return obm::apps::runMain("obm-sim-bench", obm::apps::OtherExceptions::Error, [&] {
     obm::setLogLevel(obm::LogLevel::Warn);
     using namespace obm::sim;
     const int hw = std::max(1u, std::thread::hardware_concurrency());
@@ -229,8 +230,5 @@ int main(int argc, char** argv) {
               << loadAverage() << "; peak RSS of the whole benchmark " << fmt(peakRssMiB(), 0)
               << " MiB. \"On free cores\" = cores × items / process CPU time.\n";
     return 0;
-  } catch (const std::exception& e) {
-    std::cerr << "obm-sim-bench: error: " << e.what() << "\n";
-    return 1;
-  }
+  });
 }

@@ -1,19 +1,11 @@
 // obm-sim: simulates LiDAR / RGB-D sequences with ground truth (see docs/obm-sim.md).
 #include <CLI/CLI.hpp>
-#include <atomic>
-#include <csignal>
 #include <iostream>
 
+#include "../common/cli.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
 #include "obm/sim/simulator.hpp"
-
-namespace {
-std::atomic<bool> g_cancel{false};
-extern "C" void onSignal(int) {
-  g_cancel = true;
-}
-}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -21,7 +13,7 @@ int main(int argc, char** argv) {
       "truth by ray casting a procedural or loaded scene along a trajectory, plus an MRPT rawlog "
       "and pictures. The output folder appears only when everything was written."};
   obm::sim::SimCommandLine cl;
-  std::string out, log_level = "info";
+  std::string out, log_level;
   bool overwrite = false, quiet = false, list = false, preview = false;
   app.add_option("-p,--preset", cl.preset,
                  "preset name: config/sim/NAME.yaml, searched in $OBM_CONFIG_DIR, "
@@ -47,10 +39,10 @@ int main(int argc, char** argv) {
                "only the pictures (top view + one frame) and sim_info.yaml: a quick look at what "
                "the configuration generates");
   app.add_flag("--list-presets", list, "print the presets found and exit");
-  app.add_option("--log-level", log_level, "debug, info, warn, error or off [default: info]");
+  obm::apps::addLogLevelOption(app, log_level, "info");
   CLI11_PARSE(app, argc, argv);
 
-  try {
+  return obm::apps::runMain("obm-sim", obm::apps::OtherExceptions::Error, [&] {
     obm::setLogLevel(obm::parseLogLevel(log_level));
     if (list) {
       for (const auto& n : obm::sim::listPresets(argv[0])) std::cout << n << "\n";
@@ -58,16 +50,21 @@ int main(int argc, char** argv) {
     }
     if (out.empty()) throw obm::ConfigError("--out: an output folder is required");
     const obm::sim::SimConfig cfg = obm::sim::resolveConfig(cl, argv[0]);
-    std::signal(SIGINT, onSignal);
-    std::signal(SIGTERM, onSignal);
+    const std::atomic<bool>& cancel = obm::apps::installCancelHandler();
     obm::sim::SequenceSimulator sim(cfg);
     obm::sim::SimOptions opt;
     opt.out_dir = out;
     opt.overwrite = overwrite;
     opt.progress = !quiet;
-    opt.cancel = &g_cancel;
+    opt.cancel = &cancel;
     opt.preview_only = preview;
-    const auto sum = sim.run(opt);
+    obm::sim::SimSummary sum;
+    try {
+      sum = sim.run(opt);
+    } catch (const obm::sim::Cancelled& e) {
+      std::cerr << "obm-sim: " << e.what() << "; nothing was written\n";
+      return 130;
+    }
     if (preview)
       std::cout << "obm-sim: preview of a " << sum.frames << "-frame sequence (" << sum.length_m
                 << " m of trajectory) -> " << sum.out_dir << "\n";
@@ -75,11 +72,5 @@ int main(int argc, char** argv) {
       std::cout << "obm-sim: " << sum.frames << " frames, " << sum.points << " points, "
                 << sum.length_m << " m of trajectory -> " << sum.out_dir << "\n";
     return 0;
-  } catch (const obm::sim::Cancelled& e) {
-    std::cerr << "obm-sim: " << e.what() << "; nothing was written\n";
-    return 130;
-  } catch (const std::exception& e) {
-    std::cerr << "obm-sim: error: " << e.what() << "\n";
-    return 1;
-  }
+  });
 }

@@ -2,8 +2,6 @@
 #include <torch/torch.h>
 
 #include <CLI/CLI.hpp>
-#include <atomic>
-#include <csignal>
 #include <filesystem>
 #include <cstdio>
 #include <iostream>
@@ -11,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "../common/cli.hpp"
 #include "../common/object_source.hpp"
 #include "../common/scan_source.hpp"
 #include "obm/config/config_node.hpp"
@@ -20,13 +19,6 @@
 #include "obm/obmnet/distributed.hpp"
 #include "obm/obmnet/trainer.hpp"
 #include "launcher.hpp"
-
-namespace {
-std::atomic<bool> g_stop{false};
-void onSignal(int) {
-  g_stop = true;
-}
-}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -41,7 +33,7 @@ int main(int argc, char** argv) {
   bool resume = false;
   int threads = 0, epochs = 0, measure = 0, overfit = 0, overfit_epoch = 0, batch = 0;
   double max_hours = -1.0;
-  std::string log_level = "info";
+  std::string log_level;
   std::vector<std::string> overrides;
   app.add_option("-c,--config", config_path, "training config (YAML: model, train, data)")
       ->required()
@@ -79,31 +71,27 @@ int main(int argc, char** argv) {
                  "rendezvous of the ranks through this file (on a file system all of them see; "
                  "must not exist) instead of MASTER_ADDR:MASTER_PORT");
   app.add_option("--device", device, "override train.device: cpu or cuda:K");
-  app.add_option("--log-level", log_level, "debug|info|warn|error")->capture_default_str();
+  obm::apps::addLogLevelOption(app, log_level, "info");
   CLI11_PARSE(app, argc, argv);
 
-  if (nproc > 1) {  // the launcher: the same command, without --nproc, once per rank
-    std::vector<std::string> args{"/proc/self/exe"};
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      if (a == "--nproc") {
-        ++i;
-        continue;
+  // Every exception, LibTorch's c10::Error included, is "obm-train: error: ...", exit code 1.
+  return obm::apps::runMain("obm-train", obm::apps::OtherExceptions::Error, [&] {
+    if (nproc > 1) {  // the launcher: the same command, without --nproc, once per rank
+      std::vector<std::string> args{"/proc/self/exe"};
+      for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (a == "--nproc") {
+          ++i;
+          continue;
+        }
+        if (a.rfind("--nproc=", 0) == 0) continue;
+        args.push_back(a);
       }
-      if (a.rfind("--nproc=", 0) == 0) continue;
-      args.push_back(a);
-    }
-    try {
       // The real path: /proc/self/exe of a child names the child itself.
       args[0] = std::filesystem::canonical("/proc/self/exe").string();
       return obm::apps::launchRanks(args, nproc, out_dir);
-    } catch (const std::exception& e) {
-      std::fprintf(stderr, "obm-train: error: %s\n", e.what());
-      return 1;
     }
-  }
 
-  try {
     obm::setLogLevel(obm::parseLogLevel(log_level));
     auto root = obm::ConfigNode::loadFile(config_path);
     obm::applyOverrides(root, overrides);
@@ -173,9 +161,8 @@ int main(int argc, char** argv) {
                   trainer.measureThroughput(measure), cfg.batch_size, cfg.threads);
       return 0;
     }
-    std::signal(SIGINT, onSignal);
-    std::signal(SIGTERM, onSignal);
-    const auto stats = trainer.run(resume, [] { return g_stop.load(); });
+    const std::atomic<bool>& stop = obm::apps::installCancelHandler();
+    const auto stats = trainer.run(resume, [&stop] { return stop.load(); });
     if (!stats.empty()) {
       const auto& s = stats.back();
       std::printf(
@@ -183,9 +170,6 @@ int main(int argc, char** argv) {
           s.epoch, s.loss, s.val_mie_r, s.val_mie_t, s.val_recall, s.wall_s);
     }
     std::printf("model: %s/best.pt   log: %s/train_log.csv\n", out_dir.c_str(), out_dir.c_str());
-    return g_stop ? 130 : 0;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "obm-train: error: %s\n", e.what());
-    return 1;
-  }
+    return stop ? 130 : 0;
+  });
 }

@@ -1,0 +1,73 @@
+#include "cli.hpp"
+
+#include <signal.h>
+
+#include <CLI/CLI.hpp>
+#include <exception>
+#include <iostream>
+
+#include "obm/core/errors.hpp"
+
+namespace {
+
+// Constant-initialised (no static-initialisation order to worry about) and lock-free, so the
+// handler's store is async-signal-safe.
+std::atomic<bool> g_cancel{false};
+static_assert(std::atomic<bool>::is_always_lock_free,
+              "the signal handler may only touch a lock-free atomic");
+
+extern "C" void onCancelSignal(int) {
+  g_cancel.store(true);
+}
+
+/// The whole line in one piece, so that it is not interleaved with other output (the ranks of
+/// obm-train share the terminal).
+void printLine(const std::string& line) {
+  std::cerr << line << std::flush;
+}
+
+}  // namespace
+
+namespace obm::apps {
+
+std::atomic<bool>& installCancelHandler() {
+  static const bool installed = [] {
+    struct sigaction sa {};
+    sa.sa_handler = onCancelSignal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESTART;  // what std::signal does on glibc: interrupted reads resume
+    sigaction(SIGINT, &sa, nullptr);
+    sigaction(SIGTERM, &sa, nullptr);
+    return true;
+  }();
+  (void)installed;
+  return g_cancel;
+}
+
+void addLogLevelOption(CLI::App& app, std::string& level, const std::string& default_level) {
+  level = default_level;
+  app.add_option("--log-level", level,
+                 "debug, info, warn, error or off [default: " + default_level + "]");
+}
+
+int runMain(const std::string& app_name, OtherExceptions other, const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const obm::Error& e) {
+    printLine(app_name + ": error: " + e.what() + "\n");
+    return 1;
+  } catch (const std::exception& e) {
+    if (other == OtherExceptions::Error) {
+      printLine(app_name + ": error: " + e.what() + "\n");
+      return 1;
+    }
+    printLine(app_name + ": unexpected error: " + e.what() + "\n");
+    return 2;
+  }
+}
+
+int runMain(const std::string& app_name, const std::function<int()>& body) {
+  return runMain(app_name, OtherExceptions::Unexpected, body);
+}
+
+}  // namespace obm::apps

@@ -1,0 +1,42 @@
+#pragma once
+/// \file cli.hpp
+/// What every command-line application of apps/ does the same way: Ctrl-C / SIGTERM as a flag
+/// the work polls, the `--log-level` option, and exceptions turned into a message on stderr and
+/// an exit code. Each app still parses its own command line with CLI11 in its main().
+#include <atomic>
+#include <functional>
+#include <string>
+
+namespace CLI {
+class App;
+}
+
+namespace obm::apps {
+
+/// Installs the process's SIGINT and SIGTERM handler (SA_RESTART) and returns the flag it sets.
+/// The handler only stores `true` to a lock-free atomic (async-signal-safe); the work polls the
+/// flag and stops at its next check (the apps then exit with status 130). Idempotent: later calls
+/// return the same flag and install nothing. Call it where the work begins: before that call the
+/// signals keep their default action (end the process).
+std::atomic<bool>& installCancelHandler();
+
+/// Adds `--log-level LEVEL` (text "debug, info, warn, error or off [default: DEFAULT]") storing
+/// into `level`, which is set to `default_level` first. The value is checked later, by
+/// obm::parseLogLevel, inside runMain's body (a bad level is an obm::ConfigError, exit code 1).
+void addLogLevelOption(CLI::App& app, std::string& level, const std::string& default_level);
+
+/// What runMain makes of an exception that is not an obm::Error.
+enum class OtherExceptions {
+  Unexpected,  ///< "APP: unexpected error: WHAT" on stderr, exit code 2
+  Error,       ///< "APP: error: WHAT" on stderr, exit code 1: the same as an obm::Error
+};
+
+/// Runs `body` and returns its exit code. An obm::Error escaping it prints "APP: error: WHAT" on
+/// stderr and returns 1; any other std::exception is reported as `other` says. Errors an app
+/// reports differently (another message, another exit code) are caught inside its body.
+int runMain(const std::string& app_name, OtherExceptions other, const std::function<int()>& body);
+
+/// runMain with OtherExceptions::Unexpected: "APP: unexpected error: WHAT", exit code 2.
+int runMain(const std::string& app_name, const std::function<int()>& body);
+
+}  // namespace obm::apps
