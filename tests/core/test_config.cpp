@@ -104,3 +104,21 @@ TEST(Config, FuzzFindingAMapUsedAsAKeyIsAConfigError) {
     }
   }
 }
+
+TEST(Config, ATextFileOrAListIsNotAConfiguration) {
+  // A plain-text file given as a configuration parses as one YAML scalar; a tool must not run on
+  // defaults from it.
+  try {
+    ConfigNode::fromString("my-laptop\n", "/etc/hostname").checkKeys({"model", "train"});
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("/etc/hostname"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("expected a map"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(ConfigNode::fromString("- a\n- b\n", "l.yaml").checkKeys({"a"}), ConfigError);
+  EXPECT_THROW(ConfigNode::fromString("train: 3\n", "s.yaml").child("train").checkKeys({"lr"}),
+               ConfigError);
+  // Empty files and absent sections have no key to check.
+  EXPECT_NO_THROW(ConfigNode::fromString("", "e.yaml").checkKeys({"a"}));
+  EXPECT_NO_THROW(ConfigNode::fromString("a: 1\n", "m.yaml").child("b").checkKeys({"x"}));
+}

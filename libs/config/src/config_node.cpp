@@ -55,7 +55,12 @@ void ConfigNode::checkKeys(std::initializer_list<const char*> known) const {
 }
 
 void ConfigNode::checkKeys(const std::vector<std::string>& known) const {
-  if (!node_.IsMap()) return;
+  // An absent or empty section has no key to check; anything else must be a map of keys (a
+  // plain-text file given as a configuration parses as one scalar).
+  if (!valid()) return;
+  if (!node_.IsMap())
+    throw ConfigError(where() + ": expected a map of keys, found " +
+                      (node_.IsSequence() ? "a list" : "the value '" + node_.Scalar().substr(0, 40) + "'"));
   const std::set<std::string> ks(known.begin(), known.end());
   for (const auto& kv : node_) {
     // YAML allows a map or a list as a key ("{a: 1}: 2"); no configuration has one.
