@@ -1,6 +1,8 @@
 #include "cli.hpp"
 
 #include <signal.h>
+#include <time.h>
+#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <exception>
@@ -16,8 +18,33 @@ std::atomic<bool> g_cancel{false};
 static_assert(std::atomic<bool>::is_always_lock_free,
               "the signal handler may only touch a lock-free atomic");
 
-extern "C" void onCancelSignal(int) {
-  g_cancel.store(true);
+std::atomic<long long> g_first_signal_ms{0};
+static_assert(std::atomic<long long>::is_always_lock_free,
+              "the signal handler may only touch lock-free atomics");
+
+long long monotonicMs() {  // clock_gettime is async-signal-safe
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<long long>(ts.tv_sec) * 1000 + ts.tv_nsec / 1000000;
+}
+
+extern "C" void onCancelSignal(int sig) {
+  // The first signal asks the app to stop at its next safe point and write what it has. A second
+  // one at least a second later (the user pressing Ctrl-C again) ends the process at once, as
+  // command-line tools do; signals closer together are one event (a terminal's Ctrl-C reaches
+  // obm-train's launcher and its ranks, and the launcher forwards it too). _exit is
+  // async-signal-safe; files being written are temporaries, so nothing half-written is left
+  // under its final name.
+  const long long now = monotonicMs();
+  if (!g_cancel.exchange(true)) {
+    g_first_signal_ms.store(now);
+    return;
+  }
+  if (now - g_first_signal_ms.load() >= 1000) {
+    static const char msg[] = "\ninterrupted again: exiting now\n";
+    (void)!::write(2, msg, sizeof msg - 1);
+    ::_exit(128 + sig);
+  }
 }
 
 /// The whole line in one piece, so that it is not interleaved with other output (the ranks of

@@ -14,10 +14,11 @@ class App;
 namespace obm::apps {
 
 /// Installs the process's SIGINT and SIGTERM handler (SA_RESTART) and returns the flag it sets.
-/// The handler only stores `true` to a lock-free atomic (async-signal-safe); the work polls the
-/// flag and stops at its next check (the apps then exit with status 130). Idempotent: later calls
-/// return the same flag and install nothing. Call it where the work begins: before that call the
-/// signals keep their default action (end the process).
+/// The handler only touches lock-free atomics (async-signal-safe); the work polls the flag and
+/// stops at its next check (the apps then exit with status 130). A second signal a second or more
+/// after the first ends the process at once (exit 128 + signal number), writing nothing more.
+/// Idempotent: later calls return the same flag and install nothing. Call it where the work
+/// begins: before that call the signals keep their default action (end the process).
 std::atomic<bool>& installCancelHandler();
 
 /// Adds `--log-level LEVEL` (text "debug, info, warn, error or off [default: DEFAULT]") storing
