@@ -20,7 +20,8 @@ ScanSourceConfig ScanSourceConfig::load(const ConfigNode& node) {
   ScanSourceConfig c;
   node.checkKeys({"source", "dir", "sequences", "val_sequences", "frame_gap", "frame_gaps",
                   "voxel", "min_range", "max_range", "voxel_keypoints", "loop_fraction",
-                  "loop_max_distance", "loop_min_separation", "yaw_augment_deg", "pose_labels"});
+                  "loop_max_distance", "loop_min_separation", "yaw_augment_deg", "pose_labels",
+                  "label_yaw_hypotheses"});
   std::string source = "kitti";
   node.get("source", source);
   if (source != "kitti")
@@ -40,6 +41,9 @@ ScanSourceConfig ScanSourceConfig::load(const ConfigNode& node) {
   node.get("loop_min_separation", c.loop_min_separation);
   node.get("yaw_augment_deg", c.yaw_augment_deg);
   node.get("pose_labels", c.pose_labels);
+  node.get("label_yaw_hypotheses", c.label_yaw_hypotheses);
+  if (c.label_yaw_hypotheses < 0)
+    throw ConfigError(node.where("label_yaw_hypotheses") + ": must be >= 0");
   if (c.pose_labels.find('/') != std::string::npos)
     throw ConfigError(node.where("pose_labels") + ": '" + c.pose_labels +
                       "': a file name inside each training sequence's folder, not a path");
@@ -115,6 +119,22 @@ obmnet::RegistrationPair makePairIJ(const io::KittiSequence& s, std::size_t i, s
     T = gt[i].inverse() * gt[j];
   }
   PointCloud source = loadScan(s, j, c);
+  const bool labelled = !c.pose_labels.empty() && s.hasGroundTruth() &&
+                        fs::path(s.groundTruthPath()).filename() == c.pose_labels;
+  if (labelled && c.label_yaw_hypotheses > 0) {
+    // Inference turns the source by H yaw hypotheses 360°/H apart and keeps the best fit, so the
+    // network meets residual headings within ±180°/H. Turning the source by the hypothesis
+    // nearest to the label's heading trains it on that distribution, not on headings it is
+    // never asked to resolve (the label is the mapping app's estimate, not ground truth).
+    const double step = 2.0 * kPi / c.label_yaw_hypotheses;
+    const Isometry3d T_aug = [&] {
+      Isometry3d R = Isometry3d::Identity();
+      R.linear() = Eigen::AngleAxisd(yaw_deg * kPi / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+      return T * R.inverse();
+    }();
+    const double yaw = std::atan2(T_aug.linear()(1, 0), T_aug.linear()(0, 0));
+    yaw_deg += std::round(yaw / step) * step * 180.0 / kPi;
+  }
   if (yaw_deg != 0.0) {
     Isometry3d Rz = Isometry3d::Identity();
     Rz.linear() = Eigen::AngleAxisd(yaw_deg * kPi / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
@@ -124,8 +144,7 @@ obmnet::RegistrationPair makePairIJ(const io::KittiSequence& s, std::size_t i, s
   auto pair = obmnet::makeScanPair(source, loadScan(s, i, c), T, c.voxel, num_points, rng,
                                    c.voxel_keypoints);
   pair.name = s.name() + ":" + std::to_string(j) + "->" + std::to_string(i);
-  if (!c.pose_labels.empty() && s.hasGroundTruth() &&
-      fs::path(s.groundTruthPath()).filename() == c.pose_labels) {
+  if (labelled) {
     // A training sequence opened on its pose labels (openAll): T is the label, not ground truth.
     pair.has_pose_label = true;
     pair.T_target_source_label = T;

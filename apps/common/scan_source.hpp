@@ -49,6 +49,11 @@ struct ScanSourceConfig {
   /// (RegistrationPair::T_target_source_label, for train.pose_loss_weight). Validation sequences
   /// keep their ground truth, which only scores.
   std::string pose_labels;
+  /// With pose labels: the yaw hypotheses of inference (4 for `planar` models, 90° apart). Each
+  /// labelled pair's source is turned by the hypothesis nearest to its labelled heading (after
+  /// the yaw augmentation), so the network trains on residual headings within ±180°/H, which is
+  /// what it meets at inference; 0 = off (any heading, up to 180°).
+  int label_yaw_hypotheses = 0;
 
   /// Reads the `data:` map (source must be `kitti`); unknown keys are errors naming the file.
   static ScanSourceConfig load(const ConfigNode& node);

@@ -223,6 +223,25 @@ TEST(ScanSource, PoseLabelsComeFromTheMappingTrajectoryNeverFromGroundTruth) {
     EXPECT_LT((p.T_target_source_label.matrix() - Eigen::Matrix4d::Identity()).norm(), 1e-5)
         << p.name << "\n" << p.T_target_source_label.matrix();
   }
+  // Headings of every kind (augmented by up to 180°) come out within ±45° of a hypothesis of
+  // inference, with the label turned along: the residual heading of the label is within ±45°.
+  {
+    auto turned = cfg;
+    turned.yaw_augment_deg = 180.0;
+    turned.label_yaw_hypotheses = 4;
+    const auto s4 = apps::scanPairSampler(turned, 256);
+    double largest = 0.0;
+    for (int k = 0; k < 40; ++k) {
+      const auto p = s4(rng, 1);
+      const auto& L = p.T_target_source_label.linear();
+      const double yaw = std::abs(std::atan2(L(1, 0), L(0, 0))) * 180.0 / 3.14159265358979323846;
+      largest = std::max(largest, yaw);
+      // The label still maps the (turned) source onto the target: the clouds moved together.
+      EXPECT_TRUE(p.T_target_source_label.isApprox(p.T_target_source, 1e-12));
+    }
+    EXPECT_LE(largest, 45.0 + 1e-6);
+    EXPECT_GT(largest, 5.0) << "the augmentation should still leave residual headings";
+  }
   // Validation pairs are scored on ground truth and carry no label.
   for (const auto& p : apps::scanValidationPairs(cfg, 256, 2, 1)) {
     EXPECT_FALSE(p.has_pose_label) << p.name;
