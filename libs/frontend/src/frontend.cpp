@@ -1,6 +1,5 @@
 #include "obm/frontend/frontend.hpp"
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <deque>
@@ -10,6 +9,7 @@
 #include <optional>
 #include <random>
 
+#include "edge_information.hpp"
 #include "obm/backend/optimizer.hpp"
 #include "obm/core/cloud_ops.hpp"
 #include "obm/core/errors.hpp"
@@ -30,35 +30,6 @@ constexpr std::size_t kMapDelayFrames = 3;
 
 bool isObmNetType(const std::string& type) {
   return type == "obmnet" || type == "obmnet+icp" || type == "obmm+icp";
-}
-
-/// Ω_edge = (Ω⁻¹ + Σ_floor)⁻¹ = Ω (I + Σ_floor Ω)⁻¹ (valid for a singular Ω), symmetrised, with
-/// eigenvalues clamped to >= 1 (σ <= 1 m or 1 rad along any direction) so the graph stays
-/// solvable, then converted to g2o's (t, vec q) parametrisation.
-Matrix6d edgeInformation(const Matrix6d& omega_theta, double scale, double sigma_t,
-                         double sigma_r) {
-  Matrix6d O = scale * 0.5 * (omega_theta + omega_theta.transpose());
-  if (!O.allFinite()) O.setZero();
-  Vector6d floor_var;
-  floor_var << sigma_t * sigma_t, sigma_t * sigma_t, sigma_t * sigma_t, sigma_r * sigma_r,
-      sigma_r * sigma_r, sigma_r * sigma_r;
-  const Matrix6d S = floor_var.asDiagonal();
-  Matrix6d F = O * (Matrix6d::Identity() + S * O).inverse();
-  F = 0.5 * (F + F.transpose());
-  if (!F.allFinite()) F = O;
-  Eigen::SelfAdjointEigenSolver<Matrix6d> es(F);
-  Vector6d ev = es.eigenvalues().cwiseMax(1.0);
-  F = es.eigenvectors() * ev.asDiagonal() * es.eigenvectors().transpose();
-  F = 0.5 * (F + F.transpose());
-  return informationThetaToG2o(F);
-}
-
-/// Information of a constant-velocity bridge edge (g2o parametrisation).
-Matrix6d bridgeInformation(double sigma_t, double sigma_r) {
-  Vector6d d;
-  const double it = 1.0 / (sigma_t * sigma_t), ir = 1.0 / (sigma_r * sigma_r);
-  d << it, it, it, ir, ir, ir;
-  return informationThetaToG2o(Matrix6d(d.asDiagonal()));
 }
 
 /// Why a match is not acceptable ("" when it is).
@@ -549,13 +520,7 @@ struct Frontend::Impl {
         e.from = static_cast<backend::NodeId>(prev.id);
         e.to = static_cast<backend::NodeId>(kf.id);
         e.T_from_to = backend::Pose3::fromIsometry(prev.T_world_sensor.inverse() * T_world_sensor);
-        if (bridged || match == nullptr)
-          e.information = bridgeInformation(p.tracking.bridge_sigma_translation,
-                                            p.tracking.bridge_sigma_rotation);
-        else
-          e.information =
-              edgeInformation(match->information, p.tracking.information_scale,
-                              p.tracking.floor_sigma_translation, p.tracking.floor_sigma_rotation);
+        e.information = odometryEdgeInformation(p.tracking, match, bridged);
         e.is_loop = false;
         optimizer.addEdge(e);
       }
@@ -759,8 +724,7 @@ struct Frontend::Impl {
     e.from = static_cast<backend::NodeId>(lc.from);
     e.to = static_cast<backend::NodeId>(lc.to);
     e.T_from_to = backend::Pose3::fromIsometry(r.T_target_source);
-    e.information = edgeInformation(r.information, lp.information_scale, lp.floor_sigma_translation,
-                                    lp.floor_sigma_rotation);
+    e.information = loopEdgeInformation(lp, r);
     e.loss = lp.loss;
     e.is_loop = true;
     optimizer.addEdge(e);
