@@ -59,7 +59,9 @@ void ConfigNode::checkKeys(const std::vector<std::string>& known) const {
   // plain-text file given as a configuration parses as one scalar).
   if (!valid()) return;
   if (!node_.IsMap())
-    throw ConfigError(where() + ": expected a map of keys, found " +
+    throw ConfigError((path_.empty() ? (file_.empty() ? std::string("<config>") : file_)
+                                     : where()) +
+                      ": expected a map of keys, found " +
                       (node_.IsSequence() ? "a list" : "the value '" + node_.Scalar().substr(0, 40) + "'"));
   const std::set<std::string> ks(known.begin(), known.end());
   for (const auto& kv : node_) {
