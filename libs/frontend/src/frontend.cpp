@@ -16,8 +16,8 @@
 #include "obm/core/log.hpp"
 #include "obm/frontend/keyframe_selector.hpp"
 #include "obm/frontend/motion_model.hpp"
-#include "obm/registration/icp.hpp"
 #include "obm/registration/obmnet_matcher.hpp"
+#include "tracker.hpp"
 
 namespace obm::frontend {
 
@@ -30,32 +30,6 @@ constexpr std::size_t kMapDelayFrames = 3;
 
 bool isObmNetType(const std::string& type) {
   return type == "obmnet" || type == "obmnet+icp" || type == "obmm+icp";
-}
-
-/// Why a match is not acceptable ("" when it is).
-std::string rejectReason(const MatchResult& r, const Isometry3d& T_guess, double min_quality,
-                         double min_inlier_ratio, double max_correction, double max_rotation) {
-  if (r.status != MatchStatus::Ok && r.status != MatchStatus::NotConverged &&
-      r.status != MatchStatus::Degenerate)
-    return std::string("match status ") + toString(r.status) +
-           (r.message.empty() ? "" : " (" + r.message + ")");
-  if (!r.T_target_source.matrix().allFinite()) return "non-finite pose";
-  if (r.quality < min_quality)
-    return "quality " + std::to_string(r.quality) + " < " + std::to_string(min_quality);
-  if (r.inlier_ratio < min_inlier_ratio)
-    return "inlier ratio " + std::to_string(r.inlier_ratio) + " < " +
-           std::to_string(min_inlier_ratio) + " (recent frames fit better)";
-  const Isometry3d delta = T_guess.inverse() * r.T_target_source;
-  const double dt = delta.translation().norm();
-  const double dr = rotationAngle(delta.linear());
-  if (dt > max_correction)
-    return "jump of " + std::to_string(dt) + " m from the constant-velocity guess (> " +
-           std::to_string(max_correction) + " m)";
-  if (dr > max_rotation)
-    return "jump of " + std::to_string(dr * kRadToDeg) +
-           " deg from the constant-velocity guess (> " + std::to_string(max_rotation * kRadToDeg) +
-           " deg)";
-  return {};
 }
 
 struct FrameRecord {
@@ -117,12 +91,12 @@ MatcherChoice chooseMatcher(const FrontendParams& params) {
 struct Frontend::Impl {
   FrontendParams p;
   std::unique_ptr<ScanMatcher> matcher;  // loop verification, last-resort recovery
-  std::unique_ptr<IcpMatcher> tracker;   // frame → local map
-  std::unique_ptr<IcpMatcher> recovery;  // frame → local map, annealed wide gate
   KeyframeSelector selector;
   ConstantVelocityModel motion;
   std::mt19937_64 rng;
   backend::Optimizer optimizer;
+  bool validated;   // p.validate() has run: the parts below are built from valid parameters
+  Tracker tracker;  // frame → local map, acceptance tests
 
   std::vector<Keyframe> keyframes;
   std::vector<FrameRecord> frames;
@@ -138,7 +112,6 @@ struct Frontend::Impl {
   std::size_t local_map_first = 0;  // oldest keyframe the local map may use (after a restart)
   std::size_t frames_since_keyframe = 0;
   std::size_t bridge_run = 0;
-  std::deque<double> recent_inliers;  // inlier ratios of the last tracked frames
   // A matcher registration that may be a sudden jump, waiting for the next sweep to confirm it
   // (TrackingParams::recovery_confirm_jumps).
   struct JumpCandidate {
@@ -161,17 +134,9 @@ struct Frontend::Impl {
         matcher(std::move(m)),
         selector(params.keyframes),
         rng(params.preprocess.seed),
-        optimizer(params.optimizer) {
-    p.validate();
-    tracker = std::make_unique<IcpMatcher>(p.tracking.icp, p.tracking.confidence);
-    if (p.tracking.recovery_gate > 0.0) {
-      IcpParams r = p.tracking.icp;
-      r.initial_max_correspondence_distance =
-          std::max(p.tracking.recovery_gate, r.max_correspondence_distance);
-      r.max_iterations = std::max(r.max_iterations, 60);
-      recovery = std::make_unique<IcpMatcher>(r, p.tracking.confidence);
-    }
-  }
+        optimizer(params.optimizer),
+        validated((p.validate(), true)),
+        tracker(p.tracking) {}
 
   const char* verifyStage() const { return matcher->global() ? "obmnet" : "loop_icp"; }
 
@@ -283,7 +248,7 @@ struct Frontend::Impl {
                                   << " bridged frames in a row; restarting the local map");
       ++stats.restarts;
       local_map_first = keyframes.size();
-      recent_inliers.clear();
+      tracker.forgetRecentInliers();
       addKeyframe(fr.index, sweep.timestamp, T, cropped, nullptr, true);
       fr.keyframe = true;
       fr.restarted = true;
@@ -326,51 +291,32 @@ struct Frontend::Impl {
   }
 
   // ---------------------------------------------------------------------------------------
-  /// Median inlier ratio of the last tracked frames (0 before the first).
-  double recentInlierRatio() const {
-    if (recent_inliers.empty()) return 0.0;
-    std::vector<double> q(recent_inliers.begin(), recent_inliers.end());
-    std::nth_element(q.begin(), q.begin() + q.size() / 2, q.end());
-    return q[q.size() / 2];
-  }
-
   void track(const PointCloud& source, const Isometry3d& T_guess, FrameResult& fr) {
     const TrackingParams& tp = p.tracking;
-    const double inl_ref = recentInlierRatio();
+    const double inl_ref = tracker.recentInlierRatio();
     std::optional<JumpCandidate> previous_jump;  // the last sweep's candidate, if any
     previous_jump.swap(jump_candidate);
     // The best wide-gate recovery that fails only the relative inlier ratio (second opinion).
     std::optional<MatchResult> near;
-    // Without a velocity yet (the second frame) the guess is the last pose and any motion up to
-    // the recovery bound is normal: register with the wide, annealed gate of the recovery (a
-    // narrow gate lets a street's ground and facades hold the scan where it was).
-    const bool have_velocity = motion.count() >= 2;
-    {
-      ScopedStage s(times, "icp");
-      fr.match = (have_velocity || !recovery) ? tracker->match(source, *local_map, T_guess)
-                                              : recovery->match(source, *local_map, T_guess);
-    }
     std::string reason =
-        rejectReason(fr.match, T_guess, tp.min_quality, tp.relative_inlier_ratio * inl_ref,
-                     have_velocity ? tp.max_correction : tp.recovery_max_correction,
-                     have_velocity ? tp.max_correction_rotation : 4.0 * tp.max_correction_rotation);
+        tracker.track(source, *local_map, T_guess, motion.count() >= 2, fr.match, times);
     if (reason.empty()) {
       fr.status = TrackingStatus::Tracked;
-      recent_inliers.push_back(fr.match.inlier_ratio);
-      if (recent_inliers.size() > 10) recent_inliers.pop_front();
       return;
     }
     const double max_rot = 4.0 * tp.max_correction_rotation;
     const double recovery_q = tp.recovery_min_quality;
     const double recovery_inl = tp.recovery_relative_inlier_ratio * inl_ref;
     const double confirmed_inl = tp.recovery_confirmed_relative_inlier_ratio * inl_ref;
+    const AcceptanceBounds recovered{recovery_q, recovery_inl, tp.recovery_max_correction, max_rot};
+    const AcceptanceBounds confirmed{recovery_q, confirmed_inl, tp.recovery_max_correction, max_rot};
     // Two poses confirm each other (the second opinion, a jump seen on two sweeps).
     auto agree = [&tp](const Isometry3d& T_a, const Isometry3d& T_b) {
       const Isometry3d d = T_a.inverse() * T_b;
       return d.translation().norm() <= tp.recovery_agreement_translation &&
              rotationAngle(d.linear()) <= tp.recovery_agreement_rotation;
     };
-    if (recovery) {
+    if (const IcpMatcher* recovery = tracker.wideGate()) {
       // Hypotheses: the guess, then the guess turned about the axis of the last motion (a car's
       // vertical) by ±k·step — a wrong turn rate is the usual cause of a lost track.
       Eigen::Vector3d axis = logSO3(motion.lastMotion().linear());
@@ -391,8 +337,7 @@ struct Frontend::Impl {
           ScopedStage s(times, "icp");
           r = recovery->match(source, *local_map, T_start);
         }
-        const std::string w =
-            rejectReason(r, T_guess, recovery_q, recovery_inl, tp.recovery_max_correction, max_rot);
+        const std::string w = rejectReason(r, T_guess, recovered);
         if (w.empty() && (!found || r.inlier_ratio > best.inlier_ratio)) {
           best = r;
           found = true;
@@ -402,8 +347,7 @@ struct Frontend::Impl {
         }
         // Fails only the relative inlier ratio: a candidate for the second opinion below.
         if (!w.empty() && tp.recovery_agreement_translation > 0.0 &&
-            rejectReason(r, T_guess, recovery_q, confirmed_inl, tp.recovery_max_correction, max_rot)
-                .empty() &&
+            rejectReason(r, T_guess, confirmed).empty() &&
             (!near || r.inlier_ratio > near->inlier_ratio))
           near = r;
       }
@@ -438,17 +382,14 @@ struct Frontend::Impl {
                            << r.num_correspondences << ", correction " << d.translation().norm()
                            << " m / " << rotationAngle(d.linear()) * kRadToDeg << " deg");
       }
-      const std::string why =
-          rejectReason(r, T_guess, recovery_q, recovery_inl, tp.recovery_max_correction, max_rot);
+      const std::string why = rejectReason(r, T_guess, recovered);
       if (why.empty()) {
         fr.match = r;
         fr.status = TrackingStatus::Recovered;
         fr.reason = reason + "; taken: " + matcher->name() + " against the last keyframe";
         return;
       }
-      if (near && rejectReason(r, T_guess, recovery_q, confirmed_inl, tp.recovery_max_correction,
-                               max_rot)
-                      .empty()) {
+      if (near && rejectReason(r, T_guess, confirmed).empty()) {
         // Second opinion (TrackingParams::recovery_agreement_translation): two registrations
         // against different targets (local map, last keyframe) that land on the same pose.
         if (agree(near->T_target_source, r.T_target_source)) {
@@ -464,7 +405,8 @@ struct Frontend::Impl {
       // the constant-velocity step (two sweeps, two registrations against the keyframe).
       constexpr double kAny = std::numeric_limits<double>::infinity();
       if (tp.recovery_confirm_jumps &&
-          rejectReason(r, T_guess, recovery_q, confirmed_inl, kAny, kAny).empty()) {
+          rejectReason(r, T_guess, AcceptanceBounds{recovery_q, confirmed_inl, kAny, kAny})
+              .empty()) {
         if (previous_jump && previous_jump->frame + 1 == fr.index &&
             previous_jump->keyframes == keyframes.size()) {
           const Isometry3d T_predicted =
@@ -561,7 +503,7 @@ struct Frontend::Impl {
       for (const Vector3f& q : keyframes[i].cloud.points) merged.push_back(T * q);
     }
     const bool async = allow_async && p.local_map.async && local_map != nullptr;
-    PreparedTarget::Options opt = tracker->icpParams().targetOptions();
+    PreparedTarget::Options opt = tracker.icp().icpParams().targetOptions();
     if (async) opt.threads = 1;  // the other core tracks meanwhile
     const double voxel = k > first ? p.local_map.voxel : 0.0;
     const Vector3f center = keyframes[k].T_world_sensor.translation().cast<float>();

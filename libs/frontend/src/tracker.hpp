@@ -1,0 +1,68 @@
+#pragma once
+/// \file tracker.hpp
+/// Frame-to-local-map tracking: point-to-plane ICP of the preprocessed sweep against the local map
+/// from the constant-velocity guess, and the acceptance tests every registration of a frame
+/// passes (tracking, and the recovery steps with their own bounds). Private to libs/frontend.
+#include <deque>
+#include <memory>
+#include <string>
+
+#include "obm/core/point_cloud.hpp"
+#include "obm/core/se3.hpp"
+#include "obm/core/timer.hpp"
+#include "obm/frontend/params.hpp"
+#include "obm/registration/icp.hpp"
+#include "obm/registration/match_result.hpp"
+#include "obm/registration/prepared_target.hpp"
+
+namespace obm::frontend {
+
+/// The bounds a registration of a frame must meet to be taken.
+struct AcceptanceBounds {
+  double min_quality = 0.0;       ///< [0, 1]
+  double min_inlier_ratio = 0.0;  ///< [0, 1] (a share of the recent median inlier ratio)
+  double max_correction = 0.0;    ///< [m] translation of guess⁻¹ · estimate
+  double max_rotation = 0.0;      ///< [rad] rotation of guess⁻¹ · estimate
+};
+
+/// Why the match `r` of a frame whose constant-velocity guess is `T_guess` is not acceptable
+/// under `bounds` ("" when it is): status (ok / not_converged / degenerate pass), finite pose,
+/// quality, inlier ratio, then the correction of the guess (translation, rotation).
+std::string rejectReason(const MatchResult& r, const Isometry3d& T_guess,
+                         const AcceptanceBounds& bounds);
+
+/// Registers every frame against the local map and keeps the recent inlier ratios the relative
+/// acceptance test compares with.
+class Tracker {
+ public:
+  explicit Tracker(const TrackingParams& params);
+
+  /// Registers `source` against `local_map` from `T_guess` (stage "icp") into `match`; returns
+  /// "" when the match is accepted (then its inlier ratio joins the recent ones) or why it is
+  /// rejected. Without a velocity yet (`have_velocity` false: the second frame) the guess is the
+  /// last pose and any motion up to the recovery bound is normal: the wide, annealed gate of the
+  /// recovery registers (a narrow gate lets a street's ground and facades hold the scan where it
+  /// was) and the recovery's correction bounds apply.
+  std::string track(const PointCloud& source, const PreparedTarget& local_map,
+                    const Isometry3d& T_guess, bool have_velocity, MatchResult& match,
+                    StageTimes& times);
+
+  /// Median inlier ratio of the last accepted frames (0 before the first).
+  double recentInlierRatio() const;
+  /// Forgets the recent inlier ratios (the local map restarted).
+  void forgetRecentInliers() { recent_inliers_.clear(); }
+
+  /// The tracking ICP (its target options are the local map's).
+  const IcpMatcher& icp() const { return *icp_; }
+  /// The same ICP with the correspondence gate annealed from TrackingParams::recovery_gate;
+  /// null when recovery_gate is 0.
+  const IcpMatcher* wideGate() const { return wide_gate_.get(); }
+
+ private:
+  TrackingParams params_;
+  std::unique_ptr<IcpMatcher> icp_;        // frame → local map
+  std::unique_ptr<IcpMatcher> wide_gate_;  // frame → local map, annealed wide gate
+  std::deque<double> recent_inliers_;      // inlier ratios of the last tracked frames
+};
+
+}  // namespace obm::frontend
