@@ -4,12 +4,12 @@
 #include <cmath>
 #include <deque>
 #include <filesystem>
-#include <future>
 #include <limits>
 #include <optional>
 #include <random>
 
 #include "edge_information.hpp"
+#include "local_map.hpp"
 #include "obm/backend/optimizer.hpp"
 #include "obm/core/cloud_ops.hpp"
 #include "obm/core/errors.hpp"
@@ -24,9 +24,7 @@ namespace obm::frontend {
 namespace {
 
 constexpr const char* kLog = "frontend";
-/// An asynchronously rebuilt local map replaces the current one this many frames after the
-/// keyframe that triggered it (time for the worker; fixed, so results do not depend on timing).
-constexpr std::size_t kMapDelayFrames = 3;
+
 
 bool isObmNetType(const std::string& type) {
   return type == "obmnet" || type == "obmnet+icp" || type == "obmm+icp";
@@ -96,20 +94,13 @@ struct Frontend::Impl {
   std::mt19937_64 rng;
   backend::Optimizer optimizer;
   bool validated;   // p.validate() has run: the parts below are built from valid parameters
-  Tracker tracker;  // frame → local map, acceptance tests
+  Tracker tracker;     // frame → local map, acceptance tests
+  LocalMap local_map;  // the newest keyframes' clouds, rebuilt asynchronously
 
   std::vector<Keyframe> keyframes;
   std::vector<FrameRecord> frames;
   std::vector<LoopClosure> loops;
-  std::unique_ptr<PreparedTarget> local_map;
-  struct BuiltMap {
-    std::unique_ptr<PreparedTarget> target;
-    double ms = 0.0;  // build time in the worker
-  };
-  std::future<BuiltMap> pending;       // the next local map, being built
-  std::size_t pending_from_frame = 0;  // frame index from which it replaces the current one
   std::unique_ptr<PreparedTarget> last_keyframe_target;  // lazily, for OBMNet recovery
-  std::size_t local_map_first = 0;  // oldest keyframe the local map may use (after a restart)
   std::size_t frames_since_keyframe = 0;
   std::size_t bridge_run = 0;
   // A matcher registration that may be a sudden jump, waiting for the next sweep to confirm it
@@ -136,7 +127,8 @@ struct Frontend::Impl {
         rng(params.preprocess.seed),
         optimizer(params.optimizer),
         validated((p.validate(), true)),
-        tracker(p.tracking) {}
+        tracker(p.tracking),
+        local_map(p.local_map, tracker.icp().icpParams().targetOptions()) {}
 
   const char* verifyStage() const { return matcher->global() ? "obmnet" : "loop_icp"; }
 
@@ -182,7 +174,7 @@ struct Frontend::Impl {
       return fr;
     }
 
-    installPendingMap(fr.index);
+    local_map.installPending(fr.index, times);
     const Isometry3d T_guess = motion.predict(sweep.timestamp, p.tracking.use_timestamps);
     Isometry3d T = T_guess;
     if (!usable) {
@@ -247,7 +239,7 @@ struct Frontend::Impl {
       OBM_LOG_WARN(kLog, "frame " << fr.index << ": " << bridge_run
                                   << " bridged frames in a row; restarting the local map");
       ++stats.restarts;
-      local_map_first = keyframes.size();
+      local_map.restartAt(keyframes.size());
       tracker.forgetRecentInliers();
       addKeyframe(fr.index, sweep.timestamp, T, cropped, nullptr, true);
       fr.keyframe = true;
@@ -299,7 +291,7 @@ struct Frontend::Impl {
     // The best wide-gate recovery that fails only the relative inlier ratio (second opinion).
     std::optional<MatchResult> near;
     std::string reason =
-        tracker.track(source, *local_map, T_guess, motion.count() >= 2, fr.match, times);
+        tracker.track(source, local_map.target(), T_guess, motion.count() >= 2, fr.match, times);
     if (reason.empty()) {
       fr.status = TrackingStatus::Tracked;
       return;
@@ -335,7 +327,7 @@ struct Frontend::Impl {
         MatchResult r;
         {
           ScopedStage s(times, "icp");
-          r = recovery->match(source, *local_map, T_start);
+          r = recovery->match(source, local_map.target(), T_start);
         }
         const std::string w = rejectReason(r, T_guess, recovered);
         if (w.empty() && (!found || r.inlier_ratio > best.inlier_ratio)) {
@@ -471,77 +463,7 @@ struct Frontend::Impl {
     ++stats.keyframes;
     frames_since_keyframe = 0;
     last_keyframe_target.reset();
-    // A restart needs the new map at once; otherwise every rebuild_every-th keyframe.
-    const std::size_t since_restart = keyframes.size() - 1 - local_map_first;
-    if (bridged || local_map == nullptr || since_restart % p.local_map.rebuild_every == 0)
-      rebuildLocalMap(!bridged);
-  }
-
-  /// Rebuilds the local map from the newest keyframes at their current poses. Asynchronously
-  /// (local_map.async, when a map exists): the merge, voxel grid and KD-tree / normals run in a
-  /// worker thread and the result replaces the map kMapDelayFrames frames after this one —
-  /// a fixed frame, so results do not depend on timing.
-  void rebuildLocalMap(bool allow_async = true) {
-    if (pending.valid()) {
-      // Not installed yet (keyframes in quick succession): it is still a map of the current
-      // world, better than the one in use.
-      ScopedStage s(times, "local_map_wait");
-      BuiltMap m = pending.get();
-      local_map = std::move(m.target);
-      times.add("local_map_build", m.ms);
-    }
-    ScopedStage s(times, "local_map");
-    const std::size_t k = keyframes.size() - 1;
-    const std::size_t n = p.local_map.keyframes;
-    const std::size_t first = std::max(local_map_first, k + 1 > n ? k + 1 - n : std::size_t{0});
-    std::vector<Vector3f> merged;
-    std::size_t total = 0;
-    for (std::size_t i = first; i <= k; ++i) total += keyframes[i].cloud.size();
-    merged.reserve(total);
-    for (std::size_t i = first; i <= k; ++i) {
-      const Eigen::Isometry3f T = keyframes[i].T_world_sensor.cast<float>();
-      for (const Vector3f& q : keyframes[i].cloud.points) merged.push_back(T * q);
-    }
-    const bool async = allow_async && p.local_map.async && local_map != nullptr;
-    PreparedTarget::Options opt = tracker.icp().icpParams().targetOptions();
-    if (async) opt.threads = 1;  // the other core tracks meanwhile
-    const double voxel = k > first ? p.local_map.voxel : 0.0;
-    const Vector3f center = keyframes[k].T_world_sensor.translation().cast<float>();
-    const float r2 = static_cast<float>(p.local_map.radius * p.local_map.radius);
-    auto build = [points = std::move(merged), voxel, center, r2, opt]() mutable {
-      Timer t;
-      PointCloud cloud;
-      cloud.points = std::move(points);
-      if (voxel > 0.0) cloud = voxelDownsample(cloud, voxel);
-      PointCloud cropped;
-      cropped.points.reserve(cloud.size());
-      for (const Vector3f& q : cloud.points)
-        if ((q - center).squaredNorm() <= r2) cropped.points.push_back(q);
-      cropped.frame_id = "world";
-      BuiltMap m;
-      m.target = std::make_unique<PreparedTarget>(cropped, opt);
-      m.ms = t.ms();
-      return m;
-    };
-    if (async) {
-      pending = std::async(std::launch::async, std::move(build));
-      pending_from_frame = frames.size() + kMapDelayFrames;
-    } else {
-      BuiltMap m = build();
-      local_map = std::move(m.target);
-    }
-  }
-
-  /// Installs the asynchronously built map when its frame has come (waits for it if needed).
-  void installPendingMap(std::size_t frame_index) {
-    if (!pending.valid() || frame_index < pending_from_frame) return;
-    BuiltMap m;
-    {
-      ScopedStage s(times, "local_map_wait");
-      m = pending.get();
-    }
-    local_map = std::move(m.target);
-    times.add("local_map_build", m.ms);
+    local_map.afterKeyframe(keyframes, frames.size(), bridged, times);
   }
 
   // ---------------------------------------------------------------------------------------
@@ -695,7 +617,8 @@ struct Frontend::Impl {
     const Isometry3d T_new_old = keyframes.back().T_world_sensor * T_old_last.inverse();
     T_world_current = T_new_old * T_world_current;
     motion.applyCorrection(T_new_old);
-    rebuildLocalMap(false);  // the current map is in the old world: replace it now
+    // The current map is in the old world: replace it now.
+    local_map.rebuild(keyframes, frames.size(), false, times);
   }
 };
 

@@ -1,0 +1,85 @@
+#include "local_map.hpp"
+
+#include <algorithm>
+
+#include "obm/core/cloud_ops.hpp"
+
+namespace obm::frontend {
+
+LocalMap::LocalMap(const LocalMapParams& params, const PreparedTarget::Options& target_options)
+    : params_(params), target_options_(target_options) {}
+
+LocalMap::~LocalMap() = default;
+
+void LocalMap::afterKeyframe(const std::vector<Keyframe>& keyframes, std::size_t frame_index,
+                             bool bridged, StageTimes& times) {
+  // A restart needs the new map at once; otherwise every rebuild_every-th keyframe.
+  const std::size_t since_restart = keyframes.size() - 1 - first_;
+  if (bridged || current_ == nullptr || since_restart % params_.rebuild_every == 0)
+    rebuild(keyframes, frame_index, !bridged, times);
+}
+
+void LocalMap::rebuild(const std::vector<Keyframe>& keyframes, std::size_t frame_index,
+                       bool allow_async, StageTimes& times) {
+  if (pending_.valid()) {
+    // Not installed yet (keyframes in quick succession): it is still a map of the current
+    // world, better than the one in use.
+    ScopedStage s(times, "local_map_wait");
+    BuiltMap m = pending_.get();
+    current_ = std::move(m.target);
+    times.add("local_map_build", m.ms);
+  }
+  ScopedStage s(times, "local_map");
+  const std::size_t k = keyframes.size() - 1;
+  const std::size_t n = params_.keyframes;
+  const std::size_t first = std::max(first_, k + 1 > n ? k + 1 - n : std::size_t{0});
+  std::vector<Vector3f> merged;
+  std::size_t total = 0;
+  for (std::size_t i = first; i <= k; ++i) total += keyframes[i].cloud.size();
+  merged.reserve(total);
+  for (std::size_t i = first; i <= k; ++i) {
+    const Eigen::Isometry3f T = keyframes[i].T_world_sensor.cast<float>();
+    for (const Vector3f& q : keyframes[i].cloud.points) merged.push_back(T * q);
+  }
+  const bool async = allow_async && params_.async && current_ != nullptr;
+  PreparedTarget::Options opt = target_options_;
+  if (async) opt.threads = 1;  // the other core tracks meanwhile
+  const double voxel = k > first ? params_.voxel : 0.0;
+  const Vector3f center = keyframes[k].T_world_sensor.translation().cast<float>();
+  const float r2 = static_cast<float>(params_.radius * params_.radius);
+  auto build = [points = std::move(merged), voxel, center, r2, opt]() mutable {
+    Timer t;
+    PointCloud cloud;
+    cloud.points = std::move(points);
+    if (voxel > 0.0) cloud = voxelDownsample(cloud, voxel);
+    PointCloud cropped;
+    cropped.points.reserve(cloud.size());
+    for (const Vector3f& q : cloud.points)
+      if ((q - center).squaredNorm() <= r2) cropped.points.push_back(q);
+    cropped.frame_id = "world";
+    BuiltMap m;
+    m.target = std::make_unique<PreparedTarget>(cropped, opt);
+    m.ms = t.ms();
+    return m;
+  };
+  if (async) {
+    pending_ = std::async(std::launch::async, std::move(build));
+    pending_from_frame_ = frame_index + kDelayFrames;
+  } else {
+    BuiltMap m = build();
+    current_ = std::move(m.target);
+  }
+}
+
+void LocalMap::installPending(std::size_t frame_index, StageTimes& times) {
+  if (!pending_.valid() || frame_index < pending_from_frame_) return;
+  BuiltMap m;
+  {
+    ScopedStage s(times, "local_map_wait");
+    m = pending_.get();
+  }
+  current_ = std::move(m.target);
+  times.add("local_map_build", m.ms);
+}
+
+}  // namespace obm::frontend
