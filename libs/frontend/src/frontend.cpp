@@ -10,6 +10,7 @@
 
 #include "edge_information.hpp"
 #include "local_map.hpp"
+#include "loop_closer.hpp"
 #include "obm/backend/optimizer.hpp"
 #include "obm/core/cloud_ops.hpp"
 #include "obm/core/errors.hpp"
@@ -96,6 +97,7 @@ struct Frontend::Impl {
   bool validated;   // p.validate() has run: the parts below are built from valid parameters
   Tracker tracker;     // frame → local map, acceptance tests
   LocalMap local_map;  // the newest keyframes' clouds, rebuilt asynchronously
+  LoopCloser loop_closer;  // candidates, verification, loop edges
 
   std::vector<Keyframe> keyframes;
   std::vector<FrameRecord> frames;
@@ -113,7 +115,6 @@ struct Frontend::Impl {
   };
   std::optional<JumpCandidate> jump_candidate;  // from the last sweep, if any
   std::optional<JumpCandidate> confirmed_jump;  // set by track(), applied by process()
-  std::size_t next_loop_search = 0;   // keyframe id of the next loop search
   Isometry3d T_world_current = Isometry3d::Identity();
   double travelled = 0.0;
   bool finished = false;
@@ -128,9 +129,8 @@ struct Frontend::Impl {
         optimizer(params.optimizer),
         validated((p.validate(), true)),
         tracker(p.tracking),
-        local_map(p.local_map, tracker.icp().icpParams().targetOptions()) {}
-
-  const char* verifyStage() const { return matcher->global() ? "obmnet" : "loop_icp"; }
+        local_map(p.local_map, tracker.icp().icpParams().targetOptions()),
+        loop_closer(p.loop_closure, p.local_map.voxel, *matcher) {}
 
   // ---------------------------------------------------------------------------------------
   FrameResult process(const PointCloud& sweep) {
@@ -246,7 +246,7 @@ struct Frontend::Impl {
       fr.restarted = true;
       bridge_run = 0;
     }
-    if (fr.keyframe) fr.loops_accepted = searchLoops();
+    if (fr.keyframe) fr.loops_accepted = closeLoops();
     fr.T_world_sensor = T_world_current;
     record(fr, T_world_current);
     return fr;
@@ -467,131 +467,12 @@ struct Frontend::Impl {
   }
 
   // ---------------------------------------------------------------------------------------
-  /// Searches loop closures for the newest keyframe; returns how many were accepted.
-  std::size_t searchLoops() {
-    const LoopClosureParams& lp = p.loop_closure;
-    const std::size_t k = keyframes.size() - 1;
-    if (!lp.enabled || k == 0 || k < next_loop_search) return 0;
-    next_loop_search = k + lp.check_every;
-    ++stats.loop_searches;
-
-    std::vector<std::pair<double, std::size_t>> candidates;
-    {
-      ScopedStage s(times, "loop_search");
-      const Keyframe& cur = keyframes[k];
-      for (std::size_t j = 0; j < k; ++j) {
-        const Keyframe& c = keyframes[j];
-        const double along = cur.travelled - c.travelled;
-        if (along < lp.min_travel) continue;
-        const double radius =
-            std::min(lp.max_search_radius, lp.search_radius + lp.search_radius_per_m * along);
-        const double d = (cur.T_world_sensor.translation() - c.T_world_sensor.translation()).norm();
-        if (d <= radius) candidates.emplace_back(d, j);
-      }
-      std::sort(candidates.begin(), candidates.end());
-    }
-    std::vector<std::size_t> tried;
-    std::size_t accepted = 0;
-    for (const auto& [d, j] : candidates) {
-      if (tried.size() >= lp.max_candidates) break;
-      // Candidates next to one already tried would verify against nearly the same submap.
-      bool near_tried = false;
-      for (std::size_t t : tried)
-        if (static_cast<long>(std::max(t, j) - std::min(t, j)) <= lp.submap_keyframes)
-          near_tried = true;
-      if (near_tried) continue;
-      tried.push_back(j);
-      LoopClosure lc;
-      lc.from = j;
-      lc.to = k;
-      if (lp.use_descriptor) {
-        ScopedStage s(times, "loop_search");
-        lc.descriptor_distance =
-            compareDescriptors(keyframes[k].descriptor, keyframes[j].descriptor).distance;
-      }
-      if (lp.use_descriptor && lc.descriptor_distance > lp.max_descriptor_distance) {
-        lc.reason = "descriptor distance " + std::to_string(lc.descriptor_distance);
-        loops.push_back(lc);
-        continue;
-      }
-      verify(lc, d);
-      loops.push_back(lc);
-      if (lc.accepted) {
-        ++accepted;
-        break;
-      }
-    }
-    if (accepted > 0) {
-      next_loop_search = k + std::max(lp.check_every, lp.cooldown);
-      optimize();
-    }
+  /// The loop closer searches the newest keyframe; an accepted loop is followed by an
+  /// optimisation of the pose graph. Returns how many loops were accepted.
+  std::size_t closeLoops() {
+    const std::size_t accepted = loop_closer.search(keyframes, loops, optimizer, stats, times);
+    if (accepted > 0) optimize();
     return accepted;
-  }
-
-  void verify(LoopClosure& lc, double distance) {
-    const LoopClosureParams& lp = p.loop_closure;
-    const Keyframe& cur = keyframes[lc.to];
-    const Keyframe& cand = keyframes[lc.from];
-    ++stats.loop_candidates;
-    MatchResult r;
-    const Isometry3d T_init = cand.T_world_sensor.inverse() * cur.T_world_sensor;
-    {
-      ScopedStage s(times, verifyStage());
-      // Target: the candidate and its neighbours, in the candidate's frame.
-      const long w = lp.submap_keyframes;
-      const long lo = std::max<long>(0, static_cast<long>(lc.from) - w);
-      const long hi = std::min<long>(static_cast<long>(lc.to) - 1, static_cast<long>(lc.from) + w);
-      PointCloud submap;
-      const Isometry3d T_cand_world = cand.T_world_sensor.inverse();
-      for (long i = lo; i <= hi; ++i) {
-        const Keyframe& kf = keyframes[static_cast<std::size_t>(i)];
-        if (cur.travelled - kf.travelled < 0.5 * lp.min_travel) continue;  // not the recent past
-        const Eigen::Isometry3f T = (T_cand_world * kf.T_world_sensor).cast<float>();
-        for (const Vector3f& q : kf.cloud.points) submap.points.push_back(T * q);
-      }
-      if (p.local_map.voxel > 0.0) submap = voxelDownsample(submap, p.local_map.voxel);
-      const PreparedTarget target = matcher->prepare(submap);
-      r = matcher->match(cur.cloud, target, T_init);
-    }
-    lc.T_from_to = r.T_target_source;
-    lc.quality = r.quality;
-    lc.inlier_ratio = r.inlier_ratio;
-    lc.correction = (T_init.inverse() * r.T_target_source).translation().norm();
-    const double max_corr = lp.max_correction > 0.0
-                                ? lp.max_correction
-                                : std::min(lp.max_search_radius,
-                                           lp.search_radius + lp.search_radius_per_m *
-                                                                  (cur.travelled - cand.travelled));
-    if (r.status != MatchStatus::Ok && r.status != MatchStatus::NotConverged)
-      lc.reason = std::string("match status ") + toString(r.status);
-    else if (!r.T_target_source.matrix().allFinite())
-      lc.reason = "non-finite pose";
-    else if (r.quality < lp.min_quality)
-      lc.reason = "quality " + std::to_string(r.quality);
-    else if (r.inlier_ratio < lp.min_inlier_ratio)
-      lc.reason = "inlier ratio " + std::to_string(r.inlier_ratio);
-    else if (lc.correction > max_corr)
-      lc.reason = "correction " + std::to_string(lc.correction) + " m";
-    lc.accepted = lc.reason.empty();
-    if (!lc.accepted) {
-      ++stats.loops_rejected;
-      OBM_LOG_DEBUG(kLog, "loop " << lc.from << " -> " << lc.to << " rejected: " << lc.reason);
-      return;
-    }
-    ++stats.loops_accepted;
-    OBM_LOG_INFO(kLog, "loop closure keyframe " << lc.to << " -> " << lc.from << " (" << distance
-                                                << " m apart, correction " << lc.correction
-                                                << " m, quality " << r.quality << ", inliers "
-                                                << r.inlier_ratio << ")");
-    ScopedStage s(times, "graph");
-    backend::Edge3 e;
-    e.from = static_cast<backend::NodeId>(lc.from);
-    e.to = static_cast<backend::NodeId>(lc.to);
-    e.T_from_to = backend::Pose3::fromIsometry(r.T_target_source);
-    e.information = loopEdgeInformation(lp, r);
-    e.loss = lp.loss;
-    e.is_loop = true;
-    optimizer.addEdge(e);
   }
 
   void optimize() {

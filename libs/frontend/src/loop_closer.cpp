@@ -1,0 +1,155 @@
+#include "loop_closer.hpp"
+
+#include <algorithm>
+
+#include "obm/core/cloud_ops.hpp"
+#include "obm/core/log.hpp"
+#include "edge_information.hpp"
+
+namespace obm::frontend {
+
+namespace {
+constexpr const char* kLog = "frontend";
+}  // namespace
+
+LoopCloser::LoopCloser(const LoopClosureParams& params, double submap_voxel,
+                       const ScanMatcher& matcher)
+    : params_(params), submap_voxel_(submap_voxel), matcher_(matcher) {}
+
+std::size_t LoopCloser::search(const std::vector<Keyframe>& keyframes,
+                               std::vector<LoopClosure>& loops, backend::Optimizer& optimizer,
+                               FrontendStats& stats, StageTimes& times) {
+  const LoopClosureParams& lp = params_;
+  const std::size_t k = keyframes.size() - 1;
+  if (!lp.enabled || k == 0 || k < next_search_) return 0;
+  next_search_ = k + lp.check_every;
+  ++stats.loop_searches;
+
+  const std::vector<std::pair<double, std::size_t>> found = candidates(keyframes, k, times);
+  std::vector<std::size_t> tried;
+  std::size_t accepted = 0;
+  for (const auto& [d, j] : found) {
+    if (tried.size() >= lp.max_candidates) break;
+    // Candidates next to one already tried would verify against nearly the same submap.
+    bool near_tried = false;
+    for (std::size_t t : tried)
+      if (static_cast<long>(std::max(t, j) - std::min(t, j)) <= lp.submap_keyframes)
+        near_tried = true;
+    if (near_tried) continue;
+    tried.push_back(j);
+    LoopClosure lc;
+    lc.from = j;
+    lc.to = k;
+    if (lp.use_descriptor) {
+      ScopedStage s(times, "loop_search");
+      lc.descriptor_distance =
+          compareDescriptors(keyframes[k].descriptor, keyframes[j].descriptor).distance;
+    }
+    if (lp.use_descriptor && lc.descriptor_distance > lp.max_descriptor_distance) {
+      lc.reason = "descriptor distance " + std::to_string(lc.descriptor_distance);
+      loops.push_back(lc);
+      continue;
+    }
+    ++stats.loop_candidates;
+    const MatchResult r = verify(lc, keyframes, times);
+    lc.reason = rejectReason(lc, r, keyframes);
+    lc.accepted = lc.reason.empty();
+    if (!lc.accepted) {
+      ++stats.loops_rejected;
+      OBM_LOG_DEBUG(kLog, "loop " << lc.from << " -> " << lc.to << " rejected: " << lc.reason);
+      loops.push_back(lc);
+      continue;
+    }
+    ++stats.loops_accepted;
+    OBM_LOG_INFO(kLog, "loop closure keyframe " << lc.to << " -> " << lc.from << " (" << d
+                                                << " m apart, correction " << lc.correction
+                                                << " m, quality " << r.quality << ", inliers "
+                                                << r.inlier_ratio << ")");
+    {
+      ScopedStage s(times, "graph");
+      backend::Edge3 e;
+      e.from = static_cast<backend::NodeId>(lc.from);
+      e.to = static_cast<backend::NodeId>(lc.to);
+      e.T_from_to = backend::Pose3::fromIsometry(r.T_target_source);
+      e.information = loopEdgeInformation(lp, r);
+      e.loss = lp.loss;
+      e.is_loop = true;
+      optimizer.addEdge(e);
+    }
+    loops.push_back(lc);
+    ++accepted;
+    break;
+  }
+  if (accepted > 0) next_search_ = k + std::max(lp.check_every, lp.cooldown);
+  return accepted;
+}
+
+std::vector<std::pair<double, std::size_t>> LoopCloser::candidates(
+    const std::vector<Keyframe>& keyframes, std::size_t k, StageTimes& times) const {
+  const LoopClosureParams& lp = params_;
+  std::vector<std::pair<double, std::size_t>> found;
+  ScopedStage s(times, "loop_search");
+  const Keyframe& cur = keyframes[k];
+  for (std::size_t j = 0; j < k; ++j) {
+    const Keyframe& c = keyframes[j];
+    const double along = cur.travelled - c.travelled;
+    if (along < lp.min_travel) continue;
+    const double radius =
+        std::min(lp.max_search_radius, lp.search_radius + lp.search_radius_per_m * along);
+    const double d = (cur.T_world_sensor.translation() - c.T_world_sensor.translation()).norm();
+    if (d <= radius) found.emplace_back(d, j);
+  }
+  std::sort(found.begin(), found.end());
+  return found;
+}
+
+MatchResult LoopCloser::verify(LoopClosure& lc, const std::vector<Keyframe>& keyframes,
+                               StageTimes& times) const {
+  const LoopClosureParams& lp = params_;
+  const Keyframe& cur = keyframes[lc.to];
+  const Keyframe& cand = keyframes[lc.from];
+  MatchResult r;
+  const Isometry3d T_init = cand.T_world_sensor.inverse() * cur.T_world_sensor;
+  {
+    ScopedStage s(times, verifyStage());
+    // Target: the candidate and its neighbours, in the candidate's frame.
+    const long w = lp.submap_keyframes;
+    const long lo = std::max<long>(0, static_cast<long>(lc.from) - w);
+    const long hi = std::min<long>(static_cast<long>(lc.to) - 1, static_cast<long>(lc.from) + w);
+    PointCloud submap;
+    const Isometry3d T_cand_world = cand.T_world_sensor.inverse();
+    for (long i = lo; i <= hi; ++i) {
+      const Keyframe& kf = keyframes[static_cast<std::size_t>(i)];
+      if (cur.travelled - kf.travelled < 0.5 * lp.min_travel) continue;  // not the recent past
+      const Eigen::Isometry3f T = (T_cand_world * kf.T_world_sensor).cast<float>();
+      for (const Vector3f& q : kf.cloud.points) submap.points.push_back(T * q);
+    }
+    if (submap_voxel_ > 0.0) submap = voxelDownsample(submap, submap_voxel_);
+    const PreparedTarget target = matcher_.prepare(submap);
+    r = matcher_.match(cur.cloud, target, T_init);
+  }
+  lc.T_from_to = r.T_target_source;
+  lc.quality = r.quality;
+  lc.inlier_ratio = r.inlier_ratio;
+  lc.correction = (T_init.inverse() * r.T_target_source).translation().norm();
+  return r;
+}
+
+std::string LoopCloser::rejectReason(const LoopClosure& lc, const MatchResult& r,
+                                     const std::vector<Keyframe>& keyframes) const {
+  const LoopClosureParams& lp = params_;
+  const double travelled = keyframes[lc.to].travelled - keyframes[lc.from].travelled;
+  const double max_corr =
+      lp.max_correction > 0.0
+          ? lp.max_correction
+          : std::min(lp.max_search_radius, lp.search_radius + lp.search_radius_per_m * travelled);
+  if (r.status != MatchStatus::Ok && r.status != MatchStatus::NotConverged)
+    return std::string("match status ") + toString(r.status);
+  if (!r.T_target_source.matrix().allFinite()) return "non-finite pose";
+  if (r.quality < lp.min_quality) return "quality " + std::to_string(r.quality);
+  if (r.inlier_ratio < lp.min_inlier_ratio) return "inlier ratio " + std::to_string(r.inlier_ratio);
+  if (lc.correction > max_corr) return "correction " + std::to_string(lc.correction) + " m";
+  return {};
+}
+
+}  // namespace obm::frontend

@@ -1,0 +1,58 @@
+#pragma once
+/// \file loop_closer.hpp
+/// Loop closure for the newest keyframe: candidate search (earlier keyframes within a radius that
+/// grows with the distance travelled since them, nearest first), place-descriptor check,
+/// verification by the scan matcher against the candidate's submap, acceptance tests, and the
+/// robust loop edge added to the pose graph. Private to libs/frontend.
+#include <cstddef>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "obm/backend/optimizer.hpp"
+#include "obm/core/timer.hpp"
+#include "obm/frontend/frontend.hpp"
+#include "obm/frontend/params.hpp"
+#include "obm/registration/scan_matcher.hpp"
+
+namespace obm::frontend {
+
+class LoopCloser {
+ public:
+  /// `submap_voxel`: voxel grid of the candidate's submap (LocalMapParams::voxel); `matcher`
+  /// verifies the candidates and must outlive this object.
+  LoopCloser(const LoopClosureParams& params, double submap_voxel, const ScanMatcher& matcher);
+
+  /// Searches loop closures for the newest keyframe (every check_every keyframes, after an
+  /// accepted loop every cooldown): each candidate tried is appended to `loops`, an accepted one
+  /// adds a loop edge to `optimizer` and ends the search. Returns how many were accepted (the
+  /// caller then optimises the graph).
+  std::size_t search(const std::vector<Keyframe>& keyframes, std::vector<LoopClosure>& loops,
+                     backend::Optimizer& optimizer, FrontendStats& stats, StageTimes& times);
+
+  /// The timing stage of the matcher's work: "obmnet" for a global (OBMNet) matcher, "loop_icp"
+  /// for ICP alone.
+  const char* verifyStage() const { return matcher_.global() ? "obmnet" : "loop_icp"; }
+
+ private:
+  /// Earlier keyframes at least min_travel behind keyframe `k` along the path and within
+  /// min(max_search_radius, search_radius + search_radius_per_m · travelled) of it, as
+  /// (distance, keyframe), nearest first (stage "loop_search").
+  std::vector<std::pair<double, std::size_t>> candidates(const std::vector<Keyframe>& keyframes,
+                                                         std::size_t k, StageTimes& times) const;
+  /// Registers keyframe lc.to against the submap of keyframe lc.from (it and submap_keyframes
+  /// neighbours, but not the recent past) from the current estimate; fills the pose, quality,
+  /// inlier ratio and correction of `lc`.
+  MatchResult verify(LoopClosure& lc, const std::vector<Keyframe>& keyframes,
+                     StageTimes& times) const;
+  /// Why the verified match is not a loop closure ("" when it is).
+  std::string rejectReason(const LoopClosure& lc, const MatchResult& r,
+                           const std::vector<Keyframe>& keyframes) const;
+
+  LoopClosureParams params_;
+  double submap_voxel_;
+  const ScanMatcher& matcher_;
+  std::size_t next_search_ = 0;  // keyframe id of the next loop search
+};
+
+}  // namespace obm::frontend
