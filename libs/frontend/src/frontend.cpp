@@ -1,10 +1,6 @@
 #include "obm/frontend/frontend.hpp"
 
-#include <algorithm>
-#include <cmath>
-#include <deque>
 #include <filesystem>
-#include <limits>
 #include <optional>
 #include <random>
 
@@ -18,6 +14,7 @@
 #include "obm/frontend/keyframe_selector.hpp"
 #include "obm/frontend/motion_model.hpp"
 #include "obm/registration/obmnet_matcher.hpp"
+#include "recovery.hpp"
 #include "tracker.hpp"
 
 namespace obm::frontend {
@@ -25,7 +22,6 @@ namespace obm::frontend {
 namespace {
 
 constexpr const char* kLog = "frontend";
-
 
 bool isObmNetType(const std::string& type) {
   return type == "obmnet" || type == "obmnet+icp" || type == "obmm+icp";
@@ -87,6 +83,9 @@ MatcherChoice chooseMatcher(const FrontendParams& params) {
   return c;
 }
 
+/// The front-end: one frame at a time through preprocessing, the tracker (with the recovery
+/// steps when its match is rejected), keyframes (pose-graph nodes with odometry edges, members of
+/// the local map) and the loop closer; the pose graph is optimised after an accepted loop.
 struct Frontend::Impl {
   FrontendParams p;
   std::unique_ptr<ScanMatcher> matcher;  // loop verification, last-resort recovery
@@ -94,27 +93,17 @@ struct Frontend::Impl {
   ConstantVelocityModel motion;
   std::mt19937_64 rng;
   backend::Optimizer optimizer;
-  bool validated;   // p.validate() has run: the parts below are built from valid parameters
-  Tracker tracker;     // frame → local map, acceptance tests
-  LocalMap local_map;  // the newest keyframes' clouds, rebuilt asynchronously
-  LoopCloser loop_closer;  // candidates, verification, loop edges
+  bool validated;  // p.validate() has run: the parts below are built from valid parameters
+  Tracker tracker;          // frame → local map, acceptance tests
+  Recovery recovery;        // the steps after a rejected tracking match
+  LocalMap local_map;       // the newest keyframes' clouds, rebuilt asynchronously
+  LoopCloser loop_closer;   // candidates, verification, loop edges
 
   std::vector<Keyframe> keyframes;
   std::vector<FrameRecord> frames;
   std::vector<LoopClosure> loops;
-  std::unique_ptr<PreparedTarget> last_keyframe_target;  // lazily, for OBMNet recovery
   std::size_t frames_since_keyframe = 0;
   std::size_t bridge_run = 0;
-  // A matcher registration that may be a sudden jump, waiting for the next sweep to confirm it
-  // (TrackingParams::recovery_confirm_jumps).
-  struct JumpCandidate {
-    std::size_t frame = 0;      // its frame index
-    std::size_t keyframes = 0;  // the number of keyframes then (a new keyframe voids it)
-    Isometry3d T_guess = Isometry3d::Identity();         // its constant-velocity guess
-    Isometry3d T_world_sensor = Isometry3d::Identity();  // its registered pose
-  };
-  std::optional<JumpCandidate> jump_candidate;  // from the last sweep, if any
-  std::optional<JumpCandidate> confirmed_jump;  // set by track(), applied by process()
   Isometry3d T_world_current = Isometry3d::Identity();
   double travelled = 0.0;
   bool finished = false;
@@ -129,6 +118,7 @@ struct Frontend::Impl {
         optimizer(params.optimizer),
         validated((p.validate(), true)),
         tracker(p.tracking),
+        recovery(p.tracking, tracker.wideGate(), *matcher),
         local_map(p.local_map, tracker.icp().icpParams().targetOptions()),
         loop_closer(p.loop_closure, p.local_map.voxel, *matcher) {}
 
@@ -141,24 +131,7 @@ struct Frontend::Impl {
     ++stats.frames;
 
     PointCloud cropped, source;
-    {
-      ScopedStage s(times, "preprocess");
-      cropped = cleanAndCrop(sweep, p.preprocess.min_range, p.preprocess.max_range, &fr.preprocess);
-      source = p.preprocess.voxel > 0.0 ? voxelDownsample(cropped, p.preprocess.voxel) : cropped;
-      if (p.preprocess.max_points > 0 && source.size() > p.preprocess.max_points)
-        source = randomSubset(source, p.preprocess.max_points, rng);
-      fr.preprocess.points_out = source.size();
-    }
-    const auto min_points = static_cast<std::size_t>(p.tracking.icp.min_correspondences);
-    const bool usable = source.size() >= min_points;
-    if (!usable) {
-      ++stats.empty_sweeps;
-      OBM_LOG_WARN_THROTTLE(kLog, 2.0,
-                            "frame " << fr.index << ": unusable sweep (" << fr.preprocess.points_in
-                                     << " points, " << fr.preprocess.non_finite << " non-finite, "
-                                     << fr.preprocess.cropped << " out of range, " << source.size()
-                                     << " left)");
-    }
+    const bool usable = preprocess(sweep, fr, cropped, source);
 
     // The first usable sweep starts the map at the identity.
     if (keyframes.empty()) {
@@ -184,20 +157,107 @@ struct Frontend::Impl {
       track(source, T_guess, fr);
       if (fr.status != TrackingStatus::Bridged) T = fr.match.T_target_source;
     }
+    correctMotion(T_guess, T, fr.status);
+    count(fr);
+    travelled += (T_world_current.inverse() * T).translation().norm();
+    motion.update(T, sweep.timestamp);
+    T_world_current = T;
+    ++frames_since_keyframe;
 
-    if (confirmed_jump) {
-      applyConfirmedJump(*confirmed_jump);
-    } else if (fr.status == TrackingStatus::Recovered && motion.count() >= 2) {
-      // A recovery beyond what tracking may correct is a jump (lost sweeps): the velocity before
-      // it still holds, so the history moves with the correction instead of absorbing it. (Before
-      // there is a velocity the guess is the last pose, and the correction is the motion itself.)
+    // Only tracked frames become keyframes: a recovered pose is less certain and must not put
+    // its cloud into the local map (a wrong one would make the following frames consistently
+    // wrong).
+    if (fr.status == TrackingStatus::Tracked) {
+      if (selector.isKeyframe(keyframes.back().T_world_sensor, T, frames_since_keyframe)) {
+        addKeyframe(fr.index, sweep.timestamp, T, cropped, &fr.match, false);
+        fr.keyframe = true;
+      }
+    } else if (fr.status == TrackingStatus::Bridged && bridge_run >= p.tracking.max_bridge_frames &&
+               usable) {
+      restartLocalMap(fr, sweep.timestamp, T, cropped);
+    }
+    if (fr.keyframe) fr.loops_accepted = closeLoops();
+    fr.T_world_sensor = T_world_current;
+    record(fr, T_world_current);
+    return fr;
+  }
+
+  /// Cleans and crops the sweep into `cropped` (the keyframe cloud is made from it) and thins it
+  /// into `source` (what is registered). False when too few points are left to register.
+  bool preprocess(const PointCloud& sweep, FrameResult& fr, PointCloud& cropped,
+                  PointCloud& source) {
+    {
+      ScopedStage s(times, "preprocess");
+      cropped = cleanAndCrop(sweep, p.preprocess.min_range, p.preprocess.max_range, &fr.preprocess);
+      source = p.preprocess.voxel > 0.0 ? voxelDownsample(cropped, p.preprocess.voxel) : cropped;
+      if (p.preprocess.max_points > 0 && source.size() > p.preprocess.max_points)
+        source = randomSubset(source, p.preprocess.max_points, rng);
+      fr.preprocess.points_out = source.size();
+    }
+    const auto min_points = static_cast<std::size_t>(p.tracking.icp.min_correspondences);
+    const bool usable = source.size() >= min_points;
+    if (!usable) {
+      ++stats.empty_sweeps;
+      OBM_LOG_WARN_THROTTLE(kLog, 2.0,
+                            "frame " << fr.index << ": unusable sweep (" << fr.preprocess.points_in
+                                     << " points, " << fr.preprocess.non_finite << " non-finite, "
+                                     << fr.preprocess.cropped << " out of range, " << source.size()
+                                     << " left)");
+    }
+    return usable;
+  }
+
+  /// The tracker registers the sweep against the local map; when it rejects the match, the
+  /// recovery steps run (and may bridge the frame).
+  void track(const PointCloud& source, const Isometry3d& T_guess, FrameResult& fr) {
+    recovery.startSweep();
+    const double inl_ref = tracker.recentInlierRatio();
+    const std::string reason = tracker.track(source, local_map.target(), T_guess,
+                                             motion.count() >= 2, fr.match, times);
+    if (reason.empty()) {
+      fr.status = TrackingStatus::Tracked;
+      return;
+    }
+    const RecoveryInput in{source,          T_guess,          local_map.target(),
+                           keyframes.back(), keyframes.size(), motion.lastMotion(),
+                           inl_ref};
+    recovery.recover(in, reason, fr, times);
+  }
+
+  /// After the frame's pose T: a jump the recovery confirmed moves the sweep before; a recovery
+  /// beyond what tracking may correct is a jump (lost sweeps): the velocity before it still
+  /// holds, so the history moves with the correction instead of absorbing it. (Before there is a
+  /// velocity the guess is the last pose, and the correction is the motion itself.)
+  void correctMotion(const Isometry3d& T_guess, const Isometry3d& T, TrackingStatus status) {
+    if (const std::optional<JumpCandidate> jump = recovery.takeConfirmedJump()) {
+      applyConfirmedJump(*jump);
+    } else if (status == TrackingStatus::Recovered && motion.count() >= 2) {
       const Isometry3d d = T_guess.inverse() * T;
       if (d.translation().norm() > p.tracking.max_correction ||
           rotationAngle(d.linear()) > p.tracking.max_correction_rotation)
         motion.applyCorrection(T * T_guess.inverse());
     }
-    confirmed_jump.reset();
+  }
 
+  /// The sweep before this one, bridged with the constant-velocity guess, had a registration
+  /// that this sweep's confirmed: it moves there, and the motion model restarts from it (its
+  /// bridged pose would turn the jump into a velocity).
+  void applyConfirmedJump(const JumpCandidate& jump) {
+    FrameRecord& prev = frames.back();
+    if (prev.status == TrackingStatus::Bridged && prev.keyframe == keyframes.back().id) {
+      prev.T_keyframe_frame = keyframes.back().T_world_sensor.inverse() * jump.T_world_sensor;
+      prev.status = TrackingStatus::Recovered;
+      --stats.bridged;
+      ++stats.recovered;
+    }
+    travelled += (T_world_current.inverse() * jump.T_world_sensor).translation().norm();
+    T_world_current = jump.T_world_sensor;
+    motion.reset();
+    motion.update(jump.T_world_sensor, prev.timestamp);
+  }
+
+  /// Counts the frame's status and warns about recovered and bridged frames.
+  void count(const FrameResult& fr) {
     switch (fr.status) {
       case TrackingStatus::Tracked:
         ++stats.tracked;
@@ -218,55 +278,21 @@ struct Frontend::Impl {
                                        << fr.reason << ")");
         break;
     }
-    travelled += (T_world_current.inverse() * T).translation().norm();
-    motion.update(T, sweep.timestamp);
-    T_world_current = T;
-    ++frames_since_keyframe;
-
-    const Keyframe& last = keyframes.back();
-    // Only tracked frames become keyframes: a recovered pose is less certain and must not put
-    // its cloud into the local map (a wrong one would make the following frames consistently
-    // wrong).
-    if (fr.status == TrackingStatus::Tracked) {
-      if (selector.isKeyframe(last.T_world_sensor, T, frames_since_keyframe)) {
-        addKeyframe(fr.index, sweep.timestamp, T, cropped, &fr.match, false);
-        fr.keyframe = true;
-      }
-    } else if (fr.status == TrackingStatus::Bridged && bridge_run >= p.tracking.max_bridge_frames &&
-               usable) {
-      // The local map no longer explains the sweeps: start a new one here, joined to the old by a
-      // weak constant-velocity edge (loop closures may tie the pieces together later).
-      OBM_LOG_WARN(kLog, "frame " << fr.index << ": " << bridge_run
-                                  << " bridged frames in a row; restarting the local map");
-      ++stats.restarts;
-      local_map.restartAt(keyframes.size());
-      tracker.forgetRecentInliers();
-      addKeyframe(fr.index, sweep.timestamp, T, cropped, nullptr, true);
-      fr.keyframe = true;
-      fr.restarted = true;
-      bridge_run = 0;
-    }
-    if (fr.keyframe) fr.loops_accepted = closeLoops();
-    fr.T_world_sensor = T_world_current;
-    record(fr, T_world_current);
-    return fr;
   }
 
-  /// The sweep before this one, bridged with the constant-velocity guess, had a registration
-  /// that this sweep's confirmed: it moves there, and the motion model restarts from it (its
-  /// bridged pose would turn the jump into a velocity).
-  void applyConfirmedJump(const JumpCandidate& jump) {
-    FrameRecord& prev = frames.back();
-    if (prev.status == TrackingStatus::Bridged && prev.keyframe == keyframes.back().id) {
-      prev.T_keyframe_frame = keyframes.back().T_world_sensor.inverse() * jump.T_world_sensor;
-      prev.status = TrackingStatus::Recovered;
-      --stats.bridged;
-      ++stats.recovered;
-    }
-    travelled += (T_world_current.inverse() * jump.T_world_sensor).translation().norm();
-    T_world_current = jump.T_world_sensor;
-    motion.reset();
-    motion.update(jump.T_world_sensor, prev.timestamp);
+  /// The local map no longer explains the sweeps: start a new one here, joined to the old by a
+  /// weak constant-velocity edge (loop closures may tie the pieces together later).
+  void restartLocalMap(FrameResult& fr, double timestamp, const Isometry3d& T,
+                       const PointCloud& cropped) {
+    OBM_LOG_WARN(kLog, "frame " << fr.index << ": " << bridge_run
+                                << " bridged frames in a row; restarting the local map");
+    ++stats.restarts;
+    local_map.restartAt(keyframes.size());
+    tracker.forgetRecentInliers();
+    addKeyframe(fr.index, timestamp, T, cropped, nullptr, true);
+    fr.keyframe = true;
+    fr.restarted = true;
+    bridge_run = 0;
   }
 
   void record(FrameResult& fr, const Isometry3d& T_world_frame) {
@@ -283,147 +309,8 @@ struct Frontend::Impl {
   }
 
   // ---------------------------------------------------------------------------------------
-  void track(const PointCloud& source, const Isometry3d& T_guess, FrameResult& fr) {
-    const TrackingParams& tp = p.tracking;
-    const double inl_ref = tracker.recentInlierRatio();
-    std::optional<JumpCandidate> previous_jump;  // the last sweep's candidate, if any
-    previous_jump.swap(jump_candidate);
-    // The best wide-gate recovery that fails only the relative inlier ratio (second opinion).
-    std::optional<MatchResult> near;
-    std::string reason =
-        tracker.track(source, local_map.target(), T_guess, motion.count() >= 2, fr.match, times);
-    if (reason.empty()) {
-      fr.status = TrackingStatus::Tracked;
-      return;
-    }
-    const double max_rot = 4.0 * tp.max_correction_rotation;
-    const double recovery_q = tp.recovery_min_quality;
-    const double recovery_inl = tp.recovery_relative_inlier_ratio * inl_ref;
-    const double confirmed_inl = tp.recovery_confirmed_relative_inlier_ratio * inl_ref;
-    const AcceptanceBounds recovered{recovery_q, recovery_inl, tp.recovery_max_correction, max_rot};
-    const AcceptanceBounds confirmed{recovery_q, confirmed_inl, tp.recovery_max_correction, max_rot};
-    // Two poses confirm each other (the second opinion, a jump seen on two sweeps).
-    auto agree = [&tp](const Isometry3d& T_a, const Isometry3d& T_b) {
-      const Isometry3d d = T_a.inverse() * T_b;
-      return d.translation().norm() <= tp.recovery_agreement_translation &&
-             rotationAngle(d.linear()) <= tp.recovery_agreement_rotation;
-    };
-    if (const IcpMatcher* recovery = tracker.wideGate()) {
-      // Hypotheses: the guess, then the guess turned about the axis of the last motion (a car's
-      // vertical) by ±k·step — a wrong turn rate is the usual cause of a lost track.
-      Eigen::Vector3d axis = logSO3(motion.lastMotion().linear());
-      axis = axis.norm() > 0.5 * kDegToRad ? axis.normalized() : Eigen::Vector3d::UnitZ();
-      std::vector<double> angles{0.0};
-      for (int k = 1; k <= tp.recovery_rotation_hypotheses; ++k) {
-        angles.push_back(k * tp.recovery_rotation_step);
-        angles.push_back(-k * tp.recovery_rotation_step);
-      }
-      MatchResult best;
-      bool found = false;
-      std::string why;
-      for (double a : angles) {
-        Isometry3d T_start = T_guess;
-        T_start.linear() = T_guess.linear() * expSO3(a * axis);
-        MatchResult r;
-        {
-          ScopedStage s(times, "icp");
-          r = recovery->match(source, local_map.target(), T_start);
-        }
-        const std::string w = rejectReason(r, T_guess, recovered);
-        if (w.empty() && (!found || r.inlier_ratio > best.inlier_ratio)) {
-          best = r;
-          found = true;
-          if (r.inlier_ratio >= inl_ref) break;  // as good as normal tracking: done
-        } else if (why.empty() && !w.empty()) {
-          why = w;
-        }
-        // Fails only the relative inlier ratio: a candidate for the second opinion below.
-        if (!w.empty() && tp.recovery_agreement_translation > 0.0 &&
-            rejectReason(r, T_guess, confirmed).empty() &&
-            (!near || r.inlier_ratio > near->inlier_ratio))
-          near = r;
-      }
-      if (found) {
-        fr.match = best;
-        fr.status = TrackingStatus::Recovered;
-        fr.reason = reason + "; taken: the wide-gate recovery";
-        return;
-      }
-      reason += "; wide-gate recovery: " + why;
-    }
-    {
-      // Last resort: the scan matcher against the last keyframe, from the same guess (pre-aligned
-      // for the network): a different target than the local map and the matcher's own wide,
-      // annealed gate. After a jump of several metres it can land beyond the correction bound,
-      // where only the jump confirmation below may take it.
-      const Keyframe& kf = keyframes.back();
-      MatchResult r;
-      {
-        ScopedStage s(times, "obmnet");
-        if (!last_keyframe_target)
-          last_keyframe_target = std::make_unique<PreparedTarget>(matcher->prepare(kf.cloud));
-        r = matcher->match(source, *last_keyframe_target, kf.T_world_sensor.inverse() * T_guess);
-      }
-      r.T_target_source = kf.T_world_sensor * r.T_target_source;
-      {
-        const Isometry3d d = T_guess.inverse() * r.T_target_source;
-        OBM_LOG_DEBUG(
-            kLog, "frame " << fr.index << ": " << matcher->name() << " recovery against keyframe "
-                           << kf.id << ": status " << toString(r.status) << ", quality "
-                           << r.quality << ", inlier ratio " << r.inlier_ratio << ", pairs "
-                           << r.num_correspondences << ", correction " << d.translation().norm()
-                           << " m / " << rotationAngle(d.linear()) * kRadToDeg << " deg");
-      }
-      const std::string why = rejectReason(r, T_guess, recovered);
-      if (why.empty()) {
-        fr.match = r;
-        fr.status = TrackingStatus::Recovered;
-        fr.reason = reason + "; taken: " + matcher->name() + " against the last keyframe";
-        return;
-      }
-      if (near && rejectReason(r, T_guess, confirmed).empty()) {
-        // Second opinion (TrackingParams::recovery_agreement_translation): two registrations
-        // against different targets (local map, last keyframe) that land on the same pose.
-        if (agree(near->T_target_source, r.T_target_source)) {
-          fr.match = *near;
-          fr.status = TrackingStatus::Recovered;
-          fr.reason = reason + "; taken: the wide-gate recovery, confirmed by " + matcher->name() +
-                      " against the last keyframe";
-          return;
-        }
-      }
-      // A sudden jump (TrackingParams::recovery_confirm_jumps): a registration metres from the
-      // guess is not bounded here, but it is taken only when the next sweep's lands on it moved by
-      // the constant-velocity step (two sweeps, two registrations against the keyframe).
-      constexpr double kAny = std::numeric_limits<double>::infinity();
-      if (tp.recovery_confirm_jumps &&
-          rejectReason(r, T_guess, AcceptanceBounds{recovery_q, confirmed_inl, kAny, kAny})
-              .empty()) {
-        if (previous_jump && previous_jump->frame + 1 == fr.index &&
-            previous_jump->keyframes == keyframes.size()) {
-          const Isometry3d T_predicted =
-              previous_jump->T_world_sensor * (previous_jump->T_guess.inverse() * T_guess);
-          if (agree(T_predicted, r.T_target_source)) {
-            const Isometry3d jump = T_guess.inverse() * r.T_target_source;
-            fr.match = r;
-            fr.status = TrackingStatus::Recovered;
-            fr.reason = reason + "; taken: a jump of " + std::to_string(jump.translation().norm()) +
-                        " m / " + std::to_string(rotationAngle(jump.linear()) * kRadToDeg) +
-                        " deg, registered by " + matcher->name() +
-                        " on this sweep and the one before";
-            confirmed_jump = previous_jump;
-            return;
-          }
-        }
-        jump_candidate = JumpCandidate{fr.index, keyframes.size(), T_guess, r.T_target_source};
-      }
-      reason += "; " + matcher->name() + " recovery: " + why;
-    }
-    fr.status = TrackingStatus::Bridged;
-    fr.reason = reason;
-  }
-
-  // ---------------------------------------------------------------------------------------
+  /// A new keyframe: its cloud and descriptor, a pose-graph node joined to the previous keyframe
+  /// by an odometry edge (a bridge edge after a restart), and the local map rebuilt.
   void addKeyframe(std::size_t frame_index, double timestamp, const Isometry3d& T_world_sensor,
                    const PointCloud& cropped, const MatchResult* match, bool bridged) {
     Keyframe kf;
@@ -462,11 +349,10 @@ struct Frontend::Impl {
     keyframes.push_back(std::move(kf));
     ++stats.keyframes;
     frames_since_keyframe = 0;
-    last_keyframe_target.reset();
+    recovery.keyframeAdded();
     local_map.afterKeyframe(keyframes, frames.size(), bridged, times);
   }
 
-  // ---------------------------------------------------------------------------------------
   /// The loop closer searches the newest keyframe; an accepted loop is followed by an
   /// optimisation of the pose graph. Returns how many loops were accepted.
   std::size_t closeLoops() {

@@ -1,0 +1,206 @@
+#include "recovery.hpp"
+
+#include <limits>
+#include <vector>
+
+#include "obm/core/log.hpp"
+#include "tracker.hpp"
+
+namespace obm::frontend {
+
+namespace {
+constexpr const char* kLog = "frontend";
+}  // namespace
+
+/// One frame's recovery: the input, the bounds, and what the steps so far found.
+struct Recovery::Attempt {
+  const RecoveryInput& in;
+  FrameResult& fr;
+  StageTimes& times;
+  /// Why tracking was rejected, followed by each failed step's finding; a step that takes the
+  /// frame reports this reason and what it took.
+  std::string reason;
+  /// Appended to the reason only when every step fails (the last_keyframe step's finding: the
+  /// steps after it judge the same registration).
+  std::string trailer;
+  AcceptanceBounds recovered;  ///< a recovered registration
+  AcceptanceBounds confirmed;  ///< one taken on a confirmation (second opinion, jump)
+  /// The best wide-gate registration that fails only the relative inlier ratio.
+  std::optional<MatchResult> near;
+  /// The last_keyframe step's registration (world frame) and why it was not taken.
+  std::optional<MatchResult> keyframe_match;
+  std::string keyframe_why;
+
+  bool take(const MatchResult& match, const std::string& how) {
+    fr.match = match;
+    fr.status = TrackingStatus::Recovered;
+    fr.reason = reason + "; taken: " + how;
+    return true;
+  }
+};
+
+const Recovery::Step Recovery::kSteps[] = {
+    {"wide_gate", &Recovery::wideGate},
+    {"last_keyframe", &Recovery::lastKeyframe},
+    {"second_opinion", &Recovery::secondOpinion},
+    {"confirmed_jump", &Recovery::confirmedJump},
+};
+
+std::vector<std::string> Recovery::stepNames() {
+  std::vector<std::string> names;
+  for (const Step& s : kSteps) names.emplace_back(s.name);
+  return names;
+}
+
+Recovery::Recovery(const TrackingParams& params, const IcpMatcher* wide_gate,
+                   const ScanMatcher& matcher)
+    : params_(params), wide_gate_(wide_gate), matcher_(matcher) {}
+
+void Recovery::startSweep() {
+  previous_.reset();
+  previous_.swap(candidate_);
+}
+
+std::optional<JumpCandidate> Recovery::takeConfirmedJump() {
+  std::optional<JumpCandidate> jump;
+  jump.swap(confirmed_);
+  return jump;
+}
+
+void Recovery::recover(const RecoveryInput& in, const std::string& reason, FrameResult& fr,
+                       StageTimes& times) {
+  const TrackingParams& tp = params_;
+  Attempt a{in, fr, times, reason, {}, {}, {}, {}, {}, {}};
+  const double max_rot = 4.0 * tp.max_correction_rotation;
+  a.recovered = {tp.recovery_min_quality, tp.recovery_relative_inlier_ratio * in.inlier_reference,
+                 tp.recovery_max_correction, max_rot};
+  a.confirmed = a.recovered;
+  a.confirmed.min_inlier_ratio = tp.recovery_confirmed_relative_inlier_ratio * in.inlier_reference;
+  for (const Step& step : kSteps)
+    if ((this->*step.run)(a)) return;
+  fr.status = TrackingStatus::Bridged;
+  fr.reason = a.reason + a.trailer;
+}
+
+bool Recovery::agree(const Isometry3d& T_a, const Isometry3d& T_b) const {
+  const Isometry3d d = T_a.inverse() * T_b;
+  return d.translation().norm() <= params_.recovery_agreement_translation &&
+         rotationAngle(d.linear()) <= params_.recovery_agreement_rotation;
+}
+
+/// Hypotheses: the guess, then the guess turned about the axis of the last motion (a car's
+/// vertical) by ±k·step — a wrong turn rate is the usual cause of a lost track.
+bool Recovery::wideGate(Attempt& a) {
+  if (wide_gate_ == nullptr) return false;
+  const TrackingParams& tp = params_;
+  const RecoveryInput& in = a.in;
+  Eigen::Vector3d axis = logSO3(in.last_motion.linear());
+  axis = axis.norm() > 0.5 * kDegToRad ? axis.normalized() : Eigen::Vector3d::UnitZ();
+  std::vector<double> angles{0.0};
+  for (int k = 1; k <= tp.recovery_rotation_hypotheses; ++k) {
+    angles.push_back(k * tp.recovery_rotation_step);
+    angles.push_back(-k * tp.recovery_rotation_step);
+  }
+  MatchResult best;
+  bool found = false;
+  std::string why;
+  for (double angle : angles) {
+    Isometry3d T_start = in.T_guess;
+    T_start.linear() = in.T_guess.linear() * expSO3(angle * axis);
+    MatchResult r;
+    {
+      ScopedStage s(a.times, "icp");
+      r = wide_gate_->match(in.source, in.local_map, T_start);
+    }
+    const std::string w = rejectReason(r, in.T_guess, a.recovered);
+    if (w.empty() && (!found || r.inlier_ratio > best.inlier_ratio)) {
+      best = r;
+      found = true;
+      if (r.inlier_ratio >= in.inlier_reference) break;  // as good as normal tracking: done
+    } else if (why.empty() && !w.empty()) {
+      why = w;
+    }
+    // Fails only the relative inlier ratio: a candidate for the second opinion.
+    if (!w.empty() && tp.recovery_agreement_translation > 0.0 &&
+        rejectReason(r, in.T_guess, a.confirmed).empty() &&
+        (!a.near || r.inlier_ratio > a.near->inlier_ratio))
+      a.near = r;
+  }
+  if (found) return a.take(best, "the wide-gate recovery");
+  a.reason += "; wide-gate recovery: " + why;
+  return false;
+}
+
+/// The scan matcher against the last keyframe, from the same guess (pre-aligned for the
+/// network): a different target than the local map and the matcher's own wide, annealed gate.
+/// After a jump of several metres it can land beyond the correction bound, where only the
+/// confirmed_jump step may take it.
+bool Recovery::lastKeyframe(Attempt& a) {
+  const RecoveryInput& in = a.in;
+  const Keyframe& kf = in.last_keyframe;
+  MatchResult r;
+  {
+    ScopedStage s(a.times, "obmnet");
+    if (!last_keyframe_target_)
+      last_keyframe_target_ = std::make_unique<PreparedTarget>(matcher_.prepare(kf.cloud));
+    r = matcher_.match(in.source, *last_keyframe_target_, kf.T_world_sensor.inverse() * in.T_guess);
+  }
+  r.T_target_source = kf.T_world_sensor * r.T_target_source;
+  {
+    const Isometry3d d = in.T_guess.inverse() * r.T_target_source;
+    OBM_LOG_DEBUG(kLog, "frame " << a.fr.index << ": " << matcher_.name()
+                                 << " recovery against keyframe " << kf.id << ": status "
+                                 << toString(r.status) << ", quality " << r.quality
+                                 << ", inlier ratio " << r.inlier_ratio << ", pairs "
+                                 << r.num_correspondences << ", correction "
+                                 << d.translation().norm() << " m / "
+                                 << rotationAngle(d.linear()) * kRadToDeg << " deg");
+  }
+  a.keyframe_match = r;
+  a.keyframe_why = rejectReason(r, in.T_guess, a.recovered);
+  if (a.keyframe_why.empty()) return a.take(r, matcher_.name() + " against the last keyframe");
+  a.trailer = "; " + matcher_.name() + " recovery: " + a.keyframe_why;
+  return false;
+}
+
+/// Two registrations against different targets (local map, last keyframe) that land on the same
+/// pose (TrackingParams::recovery_agreement_translation): the wide-gate one is taken.
+bool Recovery::secondOpinion(Attempt& a) {
+  if (!a.near || !a.keyframe_match) return false;
+  const MatchResult& r = *a.keyframe_match;
+  if (!rejectReason(r, a.in.T_guess, a.confirmed).empty()) return false;
+  if (!agree(a.near->T_target_source, r.T_target_source)) return false;
+  return a.take(*a.near, "the wide-gate recovery, confirmed by " + matcher_.name() +
+                             " against the last keyframe");
+}
+
+/// A sudden jump (TrackingParams::recovery_confirm_jumps): a registration metres from the guess
+/// is not bounded here, but it is taken only when the next sweep's lands on it moved by the
+/// constant-velocity step (two sweeps, two registrations against the keyframe). Otherwise this
+/// sweep's registration becomes the candidate the next sweep may confirm.
+bool Recovery::confirmedJump(Attempt& a) {
+  if (!params_.recovery_confirm_jumps || !a.keyframe_match) return false;
+  const RecoveryInput& in = a.in;
+  const MatchResult& r = *a.keyframe_match;
+  constexpr double kAny = std::numeric_limits<double>::infinity();
+  AcceptanceBounds unbounded = a.confirmed;
+  unbounded.max_correction = kAny;
+  unbounded.max_rotation = kAny;
+  if (!rejectReason(r, in.T_guess, unbounded).empty()) return false;
+  if (previous_ && previous_->frame + 1 == a.fr.index && previous_->keyframes == in.keyframes) {
+    const Isometry3d T_predicted =
+        previous_->T_world_sensor * (previous_->T_guess.inverse() * in.T_guess);
+    if (agree(T_predicted, r.T_target_source)) {
+      const Isometry3d jump = in.T_guess.inverse() * r.T_target_source;
+      confirmed_ = previous_;
+      return a.take(r, "a jump of " + std::to_string(jump.translation().norm()) + " m / " +
+                           std::to_string(rotationAngle(jump.linear()) * kRadToDeg) +
+                           " deg, registered by " + matcher_.name() +
+                           " on this sweep and the one before");
+    }
+  }
+  candidate_ = JumpCandidate{a.fr.index, in.keyframes, in.T_guess, r.T_target_source};
+  return false;
+}
+
+}  // namespace obm::frontend

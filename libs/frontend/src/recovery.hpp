@@ -1,0 +1,106 @@
+#pragma once
+/// \file recovery.hpp
+/// What happens when the tracking match of a frame is rejected: an ordered list of named steps,
+/// each of which may take the frame (status Recovered, with its own registration); when none
+/// does, the frame is bridged with the constant-velocity guess. Private to libs/frontend.
+///
+///  1. wide_gate       ICP against the local map with the correspondence gate annealed from
+///                     TrackingParams::recovery_gate, from the guess and the guess turned by
+///                     ±k·recovery_rotation_step; the best acceptable registration is taken.
+///  2. last_keyframe   the scan matcher (OBMNet + ICP or ICP) against the last keyframe alone.
+///  3. second_opinion  a wide-gate registration that failed only the relative inlier ratio is
+///                     taken when the last-keyframe registration lands on the same pose.
+///  4. confirmed_jump  a last-keyframe registration beyond the correction bounds (a sudden jump)
+///                     is taken when the previous sweep's registration predicts it.
+///
+/// Every step appends to the frame's reason what it found, so frames.csv and the log say why a
+/// frame was recovered or bridged.
+#include <cstddef>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "obm/core/point_cloud.hpp"
+#include "obm/core/se3.hpp"
+#include "obm/core/timer.hpp"
+#include "obm/frontend/frontend.hpp"
+#include "obm/frontend/params.hpp"
+#include "obm/registration/icp.hpp"
+#include "obm/registration/prepared_target.hpp"
+#include "obm/registration/scan_matcher.hpp"
+
+namespace obm::frontend {
+
+/// A registration of the scan matcher against the last keyframe that may be a sudden jump,
+/// waiting for the next sweep to confirm it (TrackingParams::recovery_confirm_jumps).
+struct JumpCandidate {
+  std::size_t frame = 0;      ///< its frame index
+  std::size_t keyframes = 0;  ///< the number of keyframes then (a new keyframe voids it)
+  Isometry3d T_guess = Isometry3d::Identity();         ///< its constant-velocity guess
+  Isometry3d T_world_sensor = Isometry3d::Identity();  ///< its registered pose
+};
+
+/// The frame being recovered and what the recovery may use.
+struct RecoveryInput {
+  const PointCloud& source;         ///< the preprocessed sweep
+  const Isometry3d& T_guess;        ///< its constant-velocity guess
+  const PreparedTarget& local_map;  ///< the map tracking registered against
+  const Keyframe& last_keyframe;
+  std::size_t keyframes = 0;               ///< number of keyframes
+  Isometry3d last_motion;                  ///< the motion model's last relative motion
+  double inlier_reference = 0.0;           ///< median inlier ratio of the recent tracked frames
+};
+
+class Recovery {
+ public:
+  /// `wide_gate`: the tracker's wide-gate ICP (null: no wide_gate step); `matcher`: the scan
+  /// matcher of the last_keyframe step. Both must outlive this object.
+  Recovery(const TrackingParams& params, const IcpMatcher* wide_gate, const ScanMatcher& matcher);
+
+  /// Before every registered sweep: the candidate of the sweep before moves to "previous" (only
+  /// the next sweep may confirm it).
+  void startSweep();
+
+  /// Runs the steps in order after tracking rejected `fr.match` for `reason`. A step that takes
+  /// the frame sets fr.match (world frame), fr.status = Recovered and fr.reason; otherwise
+  /// fr.status = Bridged and fr.reason says what every step found (fr.match is left as tracking's).
+  void recover(const RecoveryInput& in, const std::string& reason, FrameResult& fr,
+               StageTimes& times);
+
+  /// A jump confirmed by this sweep: the previous sweep's candidate (which the caller moves to
+  /// its registered pose), once; empty otherwise.
+  std::optional<JumpCandidate> takeConfirmedJump();
+
+  /// A new keyframe: the cached last-keyframe target is stale.
+  void keyframeAdded() { last_keyframe_target_.reset(); }
+
+  /// The step names, in order.
+  static std::vector<std::string> stepNames();
+
+ private:
+  struct Attempt;
+  using StepFn = bool (Recovery::*)(Attempt&);
+  struct Step {
+    const char* name;
+    StepFn run;  ///< true when the step took the frame
+  };
+  static const Step kSteps[];
+
+  bool wideGate(Attempt& a);
+  bool lastKeyframe(Attempt& a);
+  bool secondOpinion(Attempt& a);
+  bool confirmedJump(Attempt& a);
+
+  bool agree(const Isometry3d& T_a, const Isometry3d& T_b) const;
+
+  TrackingParams params_;
+  const IcpMatcher* wide_gate_;
+  const ScanMatcher& matcher_;
+  std::unique_ptr<PreparedTarget> last_keyframe_target_;  // lazily, for the last_keyframe step
+  std::optional<JumpCandidate> candidate_;  // from this sweep, if any
+  std::optional<JumpCandidate> previous_;   // from the sweep before, if any
+  std::optional<JumpCandidate> confirmed_;  // set by recover(), taken by the caller
+};
+
+}  // namespace obm::frontend
