@@ -1,0 +1,204 @@
+// The front-end's parts behind Frontend (private headers in libs/frontend/src) on tiny synthetic
+// input: edge information, the tracker's acceptance tests, the order of the recovery steps, the
+// asynchronous local map and the loop closer.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "edge_information.hpp"
+#include "local_map.hpp"
+#include "loop_closer.hpp"
+#include "obm/backend/optimizer.hpp"
+#include "obm/registration/icp.hpp"
+#include "recovery.hpp"
+#include "tracker.hpp"
+
+namespace obm::frontend {
+namespace {
+
+/// A box seen from inside: the ground and three walls on a 0.5 m grid (constrains every DOF).
+PointCloud boxCloud() {
+  PointCloud c;
+  for (double x = -20.0; x <= 20.0; x += 0.5)
+    for (double y = -20.0; y <= 20.0; y += 0.5)
+      c.push_back(Vector3f(static_cast<float>(x), static_cast<float>(y), -1.5f));
+  for (double s = -20.0; s <= 20.0; s += 0.5)
+    for (double z = -1.0; z <= 4.0; z += 0.5) {
+      c.push_back(Vector3f(-12.0f, static_cast<float>(s), static_cast<float>(z)));
+      c.push_back(Vector3f(14.0f, static_cast<float>(s), static_cast<float>(z)));
+      c.push_back(Vector3f(static_cast<float>(s), 17.0f, static_cast<float>(z)));
+    }
+  return c;
+}
+
+/// A keyframe estimated at `T_world_sensor` whose cloud is the box seen from `T_true`.
+Keyframe keyframe(std::size_t id, const Isometry3d& T_world_sensor, double travelled,
+                  const Isometry3d& T_true) {
+  Keyframe kf;
+  kf.id = id;
+  kf.frame_index = 10 * id;
+  kf.T_world_sensor = T_world_sensor;
+  kf.travelled = travelled;
+  const Eigen::Isometry3f T_sensor_world = T_true.inverse().cast<float>();
+  for (const Vector3f& q : boxCloud().points) kf.cloud.push_back(T_sensor_world * q);
+  return kf;
+}
+
+float minX(const PointCloud& c) {
+  float m = std::numeric_limits<float>::infinity();
+  for (const Vector3f& q : c.points) m = std::min(m, q.x());
+  return m;
+}
+
+Isometry3d shifted(double x) {
+  Isometry3d T = Isometry3d::Identity();
+  T.translation() = Eigen::Vector3d(x, 0.0, 0.0);
+  return T;
+}
+
+MatchResult goodMatch() {
+  MatchResult r;
+  r.status = MatchStatus::Ok;
+  r.quality = 0.9;
+  r.inlier_ratio = 0.8;
+  return r;
+}
+
+// ---------------------------------------------------------------------------------------------
+TEST(FrontendParts, EdgeInformationHasTheFloorAndBridgeEdgesTheirSigmas) {
+  // An over-confident match is limited by the floor: Ω → diag(1/σ_t², 1/σ_r²).
+  const Matrix6d huge = 1e12 * Matrix6d::Identity();
+  const Matrix6d F = informationG2oToTheta(edgeInformation(huge, 1.0, 0.01, 0.001));
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(F(i, i), 1e4, 1.0) << i;
+  for (int i = 3; i < 6; ++i) EXPECT_NEAR(F(i, i), 1e6, 100.0) << i;
+  // No information at all: eigenvalues clamped to 1 (σ <= 1 m / 1 rad).
+  EXPECT_TRUE(informationG2oToTheta(edgeInformation(Matrix6d::Zero(), 1.0, 0.01, 0.001))
+                  .isApprox(Matrix6d::Identity(), 1e-12));
+
+  TrackingParams tp;
+  const Matrix6d B = informationG2oToTheta(
+      bridgeInformation(tp.bridge_sigma_translation, tp.bridge_sigma_rotation));
+  EXPECT_NEAR(B(0, 0), 1.0 / (tp.bridge_sigma_translation * tp.bridge_sigma_translation), 1e-9);
+  EXPECT_NEAR(B(5, 5), 1.0 / (tp.bridge_sigma_rotation * tp.bridge_sigma_rotation), 1e-6);
+  // A restart, or a keyframe without a match, gets the bridge edge; a match its own information.
+  MatchResult m = goodMatch();
+  m.information = 1e3 * Matrix6d::Identity();
+  EXPECT_EQ(odometryEdgeInformation(tp, nullptr, false),
+            bridgeInformation(tp.bridge_sigma_translation, tp.bridge_sigma_rotation));
+  EXPECT_EQ(odometryEdgeInformation(tp, &m, true), odometryEdgeInformation(tp, nullptr, false));
+  EXPECT_EQ(odometryEdgeInformation(tp, &m, false),
+            edgeInformation(m.information, tp.information_scale, tp.floor_sigma_translation,
+                            tp.floor_sigma_rotation));
+  LoopClosureParams lp;
+  EXPECT_EQ(loopEdgeInformation(lp, m),
+            edgeInformation(m.information, lp.information_scale, lp.floor_sigma_translation,
+                            lp.floor_sigma_rotation));
+}
+
+TEST(FrontendParts, AcceptanceTestsCheckStatusQualityInliersThenTheCorrection) {
+  const AcceptanceBounds b{0.5, 0.6, 1.0, 5.0 * kDegToRad};
+  const Isometry3d guess = Isometry3d::Identity();
+  MatchResult r = goodMatch();
+  EXPECT_EQ(rejectReason(r, guess, b), "");
+  r.status = MatchStatus::NotConverged;
+  EXPECT_EQ(rejectReason(r, guess, b), "");  // not converged and degenerate matches are judged
+  r.status = MatchStatus::TooFewCorrespondences;
+  EXPECT_EQ(rejectReason(r, guess, b).rfind("match status ", 0), 0u);
+  r = goodMatch();
+  r.quality = 0.4;
+  r.inlier_ratio = 0.1;
+  EXPECT_EQ(rejectReason(r, guess, b).rfind("quality ", 0), 0u);  // the first failed test
+  r = goodMatch();
+  r.inlier_ratio = 0.5;
+  EXPECT_NE(rejectReason(r, guess, b).find("recent frames fit better"), std::string::npos);
+  r = goodMatch();
+  r.T_target_source = shifted(1.5);
+  EXPECT_EQ(rejectReason(r, guess, b).rfind("jump of 1.5", 0), 0u);
+  r.T_target_source = Isometry3d::Identity();
+  r.T_target_source.linear() = expSO3(Eigen::Vector3d(0.0, 0.0, 10.0 * kDegToRad));
+  EXPECT_NE(rejectReason(r, guess, b).find(" deg from the constant-velocity guess"),
+            std::string::npos);
+}
+
+TEST(FrontendParts, RecoveryStepsRunInTheDocumentedOrder) {
+  EXPECT_EQ(Recovery::stepNames(),
+            (std::vector<std::string>{"wide_gate", "last_keyframe", "second_opinion",
+                                      "confirmed_jump"}));
+}
+
+TEST(FrontendParts, AnAsynchronousLocalMapIsInstalledAFixedNumberOfFramesLater) {
+  LocalMapParams lp;
+  lp.async = true;
+  lp.radius = 1000.0;
+  LocalMap map(lp, PreparedTarget::Options());
+  StageTimes times;
+  const Isometry3d I = Isometry3d::Identity();
+  std::vector<Keyframe> kfs{keyframe(0, I, 0.0, I)};
+  map.afterKeyframe(kfs, 0, false, times);  // no map yet: built at once
+  ASSERT_TRUE(map.exists());
+  const std::size_t first_size = map.target().size();
+  EXPECT_EQ(first_size, kfs[0].cloud.size());  // one keyframe: no voxel grid
+
+  kfs.push_back(keyframe(1, shifted(10.0), 10.0, I));  // the box again, 10 m further
+  map.afterKeyframe(kfs, 7, false, times);  // a worker builds the next map
+  for (std::size_t frame = 7; frame < 7 + LocalMap::kDelayFrames; ++frame) {
+    map.installPending(frame, times);
+    EXPECT_EQ(map.target().size(), first_size) << "frame " << frame;
+  }
+  map.installPending(7 + LocalMap::kDelayFrames, times);
+  EXPECT_GT(map.target().size(), first_size);  // both boxes, on the voxel grid
+  EXPECT_NEAR(minX(map.target().cloud()), minX(kfs[0].cloud), 1e-3);
+  EXPECT_EQ(times.entries().count("local_map_build"), 1u);
+
+  // A restart keeps only the keyframes from the restart on, built at once.
+  map.restartAt(2);
+  kfs.push_back(keyframe(2, shifted(50.0), 50.0, I));
+  map.afterKeyframe(kfs, 12, true, times);
+  EXPECT_EQ(map.target().size(), kfs[2].cloud.size());
+  EXPECT_NEAR(minX(map.target().cloud()), minX(kfs[2].cloud) + 50.0f, 1e-3);
+}
+
+TEST(FrontendParts, TheLoopCloserVerifiesACandidateFarEnoughAlongThePath) {
+  LoopClosureParams lp;
+  lp.enabled = true;
+  lp.use_descriptor = false;
+  lp.check_every = 1;
+  lp.min_travel = 50.0;
+  const IcpMatcher icp;
+  LoopCloser closer(lp, 0.3, icp);
+  backend::Optimizer optimizer;
+  FrontendStats stats;
+  StageTimes times;
+  std::vector<LoopClosure> loops;
+  // Two keyframes 5 m apart in space and 20 m along the path: no candidate.
+  const Isometry3d I = Isometry3d::Identity();
+  std::vector<Keyframe> kfs{keyframe(0, I, 0.0, I), keyframe(1, shifted(5.0), 20.0, shifted(5.0))};
+  optimizer.addNode(0, kfs[0].T_world_sensor);
+  optimizer.addNode(1, kfs[1].T_world_sensor);
+  EXPECT_EQ(closer.search(kfs, loops, optimizer, stats, times), 0u);
+  EXPECT_TRUE(loops.empty());
+  EXPECT_EQ(stats.loop_searches, 1u);
+  // A third one 100 m along the path, back at the start (truly 0.3 m from keyframe 0, estimated
+  // 0.1 m: 0.2 m of drift): verified, accepted, a loop edge from keyframe 0 (the nearest).
+  kfs.push_back(keyframe(2, shifted(0.1), 100.0, shifted(0.3)));
+  optimizer.addNode(2, kfs[2].T_world_sensor);
+  ASSERT_EQ(closer.search(kfs, loops, optimizer, stats, times), 1u);
+  ASSERT_EQ(loops.size(), 1u);
+  EXPECT_TRUE(loops[0].accepted) << loops[0].reason;
+  EXPECT_EQ(loops[0].from, 0u);
+  EXPECT_EQ(loops[0].to, 2u);
+  EXPECT_LT((loops[0].T_from_to.translation() - Eigen::Vector3d(0.3, 0.0, 0.0)).norm(), 0.05);
+  EXPECT_NEAR(loops[0].correction, 0.2, 0.05);
+  EXPECT_EQ(stats.loop_candidates, 1u);
+  EXPECT_EQ(stats.loops_accepted, 1u);
+  ASSERT_EQ(optimizer.graph().edges3.size(), 1u);
+  EXPECT_TRUE(optimizer.graph().edges3[0].is_loop);
+  EXPECT_EQ(times.entries().count(closer.verifyStage()), 1u);
+  EXPECT_STREQ(closer.verifyStage(), "loop_icp");
+}
+
+}  // namespace
+}  // namespace obm::frontend
