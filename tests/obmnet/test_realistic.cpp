@@ -224,8 +224,12 @@ TEST(Registrar, YawHypothesesAreSearchedInOneBatchAndTheBestFitIsKept) {
   // An untrained planar network: what is checked is the search. Four hypotheses are tried (the
   // default for a planar model), the returned one is one of them, its fitness is at least that of
   // the single pass (which is hypothesis 0 of the four), and the pose has no roll or pitch.
+  // Both pivots of the hypotheses: the source's centroid, and its sensor (shared_centroid models).
+  for (const bool shared : {false, true}) {
+  SCOPED_TRACE(shared ? "shared centroid" : "separate centroids");
   const std::string path = test::scratchDir("registrar_yaw") + "/planar.pt";
   ObmNetConfig c;
+  c.shared_centroid = shared;
   c.emb_dims = 16;
   c.n_samples = 4;
   c.n_iters = 1;
@@ -265,6 +269,7 @@ TEST(Registrar, YawHypothesesAreSearchedInOneBatchAndTheBestFitIsKept) {
   EXPECT_LE(r4.fitness, 1.0);
   EXPECT_NEAR(r4.T_target_source.linear()(2, 2), 1.0, 1e-6);
   EXPECT_NEAR(r1.T_target_source.linear()(2, 2), 1.0, 1e-6);
+  }
 }
 
 TEST(Trainer, OverfitOneBatchLowersTheRotationError) {

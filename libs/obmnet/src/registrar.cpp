@@ -80,8 +80,17 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
   norm.applyTarget(tgt);
   int H = impl_->opt.yaw_hypotheses > 0 ? impl_->opt.yaw_hypotheses : (cfg.planar ? 4 : 1);
   H = std::max(1, H);
-  // The hypotheses: the normalised source turned about z (through its centroid, the normalised
-  // origin) by 360°·h/H, in one batch; pose h is then T̂_h · Rz_h.
+  // The hypotheses: the normalised source turned about z by 360°·h/H, in one batch; pose h is
+  // then T̂_h · Rz_h. The pivot is the normalised origin (the source's centroid), except for
+  // models normalised about a shared centre (sensor-frame scans), which turn it about its
+  // sensor, as their training does (scan_source's label_yaw_hypotheses): the sensor sits at
+  // s·(0 − c) in normalised coordinates.
+  const Eigen::Vector3d pivot = cfg.shared_centroid
+                                    ? Eigen::Vector3d(-norm.scale * norm.centroid_source)
+                                    : Eigen::Vector3d::Zero();
+  auto turn = [&](const Eigen::Matrix3d& R) {  // about the pivot: p ↦ R (p − o) + o
+    return makeIsometry(R, pivot - R * pivot);
+  };
   std::vector<Eigen::Matrix3d> Rz(static_cast<std::size_t>(H));
   torch::Tensor src_t = toTensor(src), tgt_t = toTensor(tgt);
   if (H > 1) {
@@ -90,8 +99,7 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
       Rz[static_cast<std::size_t>(h)] =
           Eigen::AngleAxisd(2.0 * 3.14159265358979323846 * h / H, Eigen::Vector3d::UnitZ())
               .toRotationMatrix();
-      rows.push_back(toTensor(src.transformed(
-          makeIsometry(Rz[static_cast<std::size_t>(h)], Eigen::Vector3d::Zero()), src.frame_id)));
+      rows.push_back(toTensor(src.transformed(turn(Rz[static_cast<std::size_t>(h)]), src.frame_id)));
     }
     src_t = torch::cat(rows, 0);
     tgt_t = tgt_t.repeat({H, 1, 1});
@@ -126,7 +134,7 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
     T_hat[static_cast<std::size_t>(h)] =
         makeIsometry(orthonormalize(Rm), Eigen::Vector3d(t[0].item<double>(), t[1].item<double>(),
                                                          t[2].item<double>())) *
-        makeIsometry(Rz[static_cast<std::size_t>(h)], Eigen::Vector3d::Zero());
+        turn(Rz[static_cast<std::size_t>(h)]);
     const Eigen::Matrix3f Rf = T_hat[static_cast<std::size_t>(h)].linear().cast<float>();
     const Eigen::Vector3f tf = T_hat[static_cast<std::size_t>(h)].translation().cast<float>();
     std::size_t in = 0;
