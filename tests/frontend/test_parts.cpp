@@ -129,6 +129,31 @@ TEST(FrontendParts, RecoveryStepsRunInTheDocumentedOrder) {
                                       "confirmed_jump"}));
 }
 
+TEST(FrontendParts, TheLastKeyframeStepTakesTheMatchersRegistrationAndTimesItByMatcher) {
+  // No wide gate: the first step that runs registers against the last keyframe with ICP.
+  TrackingParams tp;
+  const IcpMatcher icp;
+  Recovery recovery(tp, nullptr, icp);
+  const Isometry3d I = Isometry3d::Identity();
+  const Keyframe kf = keyframe(3, shifted(2.0), 8.0, shifted(2.0));
+  const Keyframe now = keyframe(4, I, 8.5, shifted(2.4));  // the sweep, 0.4 m further
+  const PreparedTarget local_map(kf.cloud);
+  const Isometry3d guess = shifted(2.2);
+  const RecoveryInput in{now.cloud, guess, local_map, kf, 4, I, 0.8};
+  FrameResult fr;
+  fr.index = 40;
+  StageTimes times;
+  recovery.startSweep();
+  recovery.recover(in, "tracking said no", fr, times);
+  EXPECT_EQ(fr.status, TrackingStatus::Recovered);
+  EXPECT_EQ(fr.reason, "tracking said no; taken: icp against the last keyframe");
+  EXPECT_LT((fr.match.T_target_source.translation() - Eigen::Vector3d(2.4, 0, 0)).norm(), 0.05);
+  EXPECT_FALSE(recovery.takeConfirmedJump());
+  // ICP's time is "loop_icp" (as in loop verification), not the OBMNet stage.
+  EXPECT_EQ(times.entries().count("loop_icp"), 1u);
+  EXPECT_EQ(times.entries().count("obmnet"), 0u);
+}
+
 TEST(FrontendParts, AnAsynchronousLocalMapIsInstalledAFixedNumberOfFramesLater) {
   LocalMapParams lp;
   lp.async = true;

@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "matcher_stage.hpp"
 #include "obm/backend/optimizer.hpp"
 #include "obm/core/timer.hpp"
 #include "obm/frontend/frontend.hpp"
@@ -30,9 +31,8 @@ class LoopCloser {
   std::size_t search(const std::vector<Keyframe>& keyframes, std::vector<LoopClosure>& loops,
                      backend::Optimizer& optimizer, FrontendStats& stats, StageTimes& times);
 
-  /// The timing stage of the matcher's work: "obmnet" for a global (OBMNet) matcher, "loop_icp"
-  /// for ICP alone.
-  const char* verifyStage() const { return matcher_.global() ? "obmnet" : "loop_icp"; }
+  /// The timing stage of the verification (matcherStage: "obmnet" or "loop_icp").
+  const char* verifyStage() const { return matcherStage(matcher_); }
 
  private:
   /// Earlier keyframes at least min_travel behind keyframe `k` along the path and within

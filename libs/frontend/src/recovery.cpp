@@ -3,6 +3,7 @@
 #include <limits>
 #include <vector>
 
+#include "matcher_stage.hpp"
 #include "obm/core/log.hpp"
 #include "tracker.hpp"
 
@@ -140,7 +141,7 @@ bool Recovery::lastKeyframe(Attempt& a) {
   const Keyframe& kf = in.last_keyframe;
   MatchResult r;
   {
-    ScopedStage s(a.times, "obmnet");
+    ScopedStage s(a.times, matcherStage(matcher_));
     if (!last_keyframe_target_)
       last_keyframe_target_ = std::make_unique<PreparedTarget>(matcher_.prepare(kf.cloud));
     r = matcher_.match(in.source, *last_keyframe_target_, kf.T_world_sensor.inverse() * in.T_guess);

@@ -1,0 +1,15 @@
+#pragma once
+/// \file matcher_stage.hpp
+/// The timing stage (StageTimes, timing.json) of the scan matcher's work in the front-end — loop
+/// verification and the last_keyframe recovery step: "obmnet" for a matcher that registers
+/// without a good guess (OBMNet, OBMNet + ICP), "loop_icp" for the local ones (ICP, OBMM + ICP).
+/// Private to libs/frontend.
+#include "obm/registration/scan_matcher.hpp"
+
+namespace obm::frontend {
+
+inline const char* matcherStage(const ScanMatcher& matcher) {
+  return matcher.global() ? "obmnet" : "loop_icp";
+}
+
+}  // namespace obm::frontend
