@@ -19,6 +19,7 @@ bin="$1"
 src="$2"
 work="$3"
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
+umount "$work/full" 2> /dev/null || true  # left mounted by an earlier run that was killed
 rm -rf "$work"
 mkdir -p "$work"
 cd "$src"
