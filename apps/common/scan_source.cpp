@@ -10,6 +10,7 @@
 #include "obm/core/cloud_ops.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
+#include "obm/core/se3.hpp"
 #include "obm/io/kitti.hpp"
 
 namespace fs = std::filesystem;
@@ -127,12 +128,9 @@ obmnet::RegistrationPair makePairIJ(const io::KittiSequence& s, std::size_t i, s
     // nearest to the label's heading trains it on that distribution, not on headings it is
     // never asked to resolve (the label is the mapping app's estimate, not ground truth).
     const double step = 2.0 * kPi / c.label_yaw_hypotheses;
-    const Isometry3d T_aug = [&] {
-      Isometry3d R = Isometry3d::Identity();
-      R.linear() = Eigen::AngleAxisd(yaw_deg * kPi / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-      return T * R.inverse();
-    }();
-    const double yaw = std::atan2(T_aug.linear()(1, 0), T_aug.linear()(0, 0));
+    // Heading of the label once the augmentation has turned the source (gravity-aligned: yaws
+    // subtract).
+    const double yaw = wrapAngle(std::atan2(T.linear()(1, 0), T.linear()(0, 0)) - yaw_deg * kPi / 180.0);
     yaw_deg += std::round(yaw / step) * step * 180.0 / kPi;
   }
   if (yaw_deg != 0.0) {

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <optional>
 #include <sstream>
 
 #include "obm/config/config_node.hpp"
@@ -122,14 +123,11 @@ Batch makeBatch(std::vector<RegistrationPair> pairs, double radius, bool shared_
     labelled = labelled && p.has_pose_label;
     if (labelled) {
       const Isometry3d L = n.normalize(p.T_target_source_label);
-      auto R = torch::empty({3, 3}, torch::kFloat32);
-      auto tt = torch::empty({3}, torch::kFloat32);
-      for (int r = 0; r < 3; ++r) {
-        tt[r] = static_cast<float>(L.translation()[r]);
-        for (int c = 0; c < 3; ++c) R[r][c] = static_cast<float>(L.linear()(r, c));
-      }
-      Rl.push_back(R);
-      tl.push_back(tt);
+      // Row-major copies (Eigen stores column-major) as the model's R·p expects.
+      const Eigen::Matrix<float, 3, 3, Eigen::RowMajor> R = L.linear().cast<float>();
+      const Eigen::Vector3f t = L.translation().cast<float>();
+      Rl.push_back(torch::from_blob(const_cast<float*>(R.data()), {3, 3}, torch::kFloat32).clone());
+      tl.push_back(torch::from_blob(const_cast<float*>(t.data()), {3}, torch::kFloat32).clone());
     }
     PointCloud src = p.source, tgt = p.target;
     n.applySource(src);
@@ -267,12 +265,22 @@ struct Trainer::Impl {
   /// is drawn from its own generator, seeded by (seed, epoch, k, j): the data of an epoch does not
   /// depend on the number of processes (a run resumes with another world size on the same pairs),
   /// and rank r draws only its shard, the pairs j with j mod world = r.
+  /// The seed words of stream `j` of step k of `epoch` (with `salt` for streams other than the
+  /// pairs'): every random stream of a step derives from them, never from what ran before.
+  std::vector<std::uint32_t> stepSeed(int epoch, int k, int j, std::optional<std::uint32_t> salt = {}) const {
+    std::vector<std::uint32_t> w{static_cast<std::uint32_t>(cfg.seed),
+                                 static_cast<std::uint32_t>(cfg.seed >> 32),
+                                 static_cast<std::uint32_t>(epoch), static_cast<std::uint32_t>(k),
+                                 static_cast<std::uint32_t>(j)};
+    if (salt) w.push_back(*salt);
+    return w;
+  }
+
   std::vector<RegistrationPair> shardOfStep(int epoch, int k) const {
     std::vector<RegistrationPair> pairs;
     for (int j = rank(); j < cfg.batch_size; j += world()) {
-      std::seed_seq ss{static_cast<std::uint32_t>(cfg.seed), static_cast<std::uint32_t>(cfg.seed >> 32),
-                       static_cast<std::uint32_t>(epoch), static_cast<std::uint32_t>(k),
-                       static_cast<std::uint32_t>(j)};
+      const auto w = stepSeed(epoch, k, j);
+      std::seed_seq ss(w.begin(), w.end());
       std::mt19937_64 rng(ss);
       pairs.push_back(sampler(rng, epoch));
     }
@@ -296,9 +304,8 @@ struct Trainer::Impl {
   /// The Gumbel noise of step k of `epoch` on this rank: its own stream, independent of what ran
   /// before in this process (a resumed run continues bit-identically).
   std::uint64_t noiseSeed(int epoch, int k) const {
-    std::seed_seq ss{static_cast<std::uint32_t>(cfg.seed), static_cast<std::uint32_t>(cfg.seed >> 32),
-                     static_cast<std::uint32_t>(epoch), static_cast<std::uint32_t>(k),
-                     static_cast<std::uint32_t>(rank()), 0x6e6f6973u /* "nois" */};
+    const auto w = stepSeed(epoch, k, rank(), 0x6e6f6973u /* "nois" */);
+    std::seed_seq ss(w.begin(), w.end());
     std::uint32_t v[2];
     ss.generate(v, v + 2);
     return (static_cast<std::uint64_t>(v[0]) << 32) | v[1];
