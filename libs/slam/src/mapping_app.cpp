@@ -155,9 +155,8 @@ RunSummary MappingApp::run() {
   std::vector<FrameRow> frame_rows;
   const io::KittiCalib* calib = source->kittiCalib();
   // The two trajectories as the run ends writes them (every frame, the current estimates).
-  auto writeTrajectories = [&](bool record) {
-    const std::vector<Isometry3d> traj = fe.trajectory();
-    const std::vector<double> stamps = fe.timestamps();
+  auto writeTrajectories = [&](const std::vector<Isometry3d>& traj,
+                               const std::vector<double>& stamps, bool record) {
     const std::string tum = (out / "trajectory_tum.txt").string(),
                       kitti = (out / "trajectory_kitti.txt").string();
     io::writeTumTrajectory(tum, io::stampPoses(traj, stamps));
@@ -195,7 +194,7 @@ RunSummary MappingApp::run() {
     bar.update(n, status.str());
     if (cfg.output.autosave_s > 0.0 && since_save.seconds() >= cfg.output.autosave_s) {
       ScopedStage s(app_times, "autosave");  // the folder exists: checkWritable made it
-      writeTrajectories(false);
+      writeTrajectories(fe.trajectory(), fe.timestamps(), false);
       since_save.reset();
     }
   }
@@ -219,7 +218,7 @@ RunSummary MappingApp::run() {
     sum.files.push_back(p);
     return p;
   };
-  writeTrajectories(true);
+  writeTrajectories(traj, stamps, true);
   {
     io::Trajectory kfs;
     for (const auto& kf : fe.keyframes()) kfs.push_back({kf.timestamp, kf.T_world_sensor});
