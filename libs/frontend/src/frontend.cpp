@@ -212,8 +212,12 @@ struct Frontend::Impl {
   void track(const PointCloud& source, const Isometry3d& T_guess, FrameResult& fr) {
     recovery.startSweep();
     const double inl_ref = tracker.recentInlierRatio();
-    const std::string reason = tracker.track(source, local_map.target(), T_guess,
-                                             motion.count() >= 2, fr.match, times);
+    const bool have_velocity = motion.count() >= 2;
+    std::optional<Isometry3d> matcher_start;
+    if (!have_velocity && p.tracking.start_search_matcher) matcher_start = matcherStart(source);
+    const std::string reason =
+        tracker.track(source, local_map.target(), T_guess, have_velocity, fr.match, times,
+                      matcher_start ? &*matcher_start : nullptr);
     if (reason.empty()) {
       fr.status = TrackingStatus::Tracked;
       return;
@@ -222,6 +226,17 @@ struct Frontend::Impl {
                            keyframes.back(), keyframes.size(), motion.lastMotion(),
                            inl_ref};
     recovery.recover(in, reason, fr, times);
+  }
+
+  /// The scan matcher's registration of the sweep against the last keyframe (world frame), from
+  /// the keyframe's pose: a start for the tracker's start search when there is no motion prior.
+  std::optional<Isometry3d> matcherStart(const PointCloud& source) {
+    ScopedStage s(times, "start_search");
+    const Keyframe& kf = keyframes.back();
+    const PreparedTarget target = matcher->prepare(kf.cloud);
+    const MatchResult r = matcher->match(source, target, Isometry3d::Identity());
+    if (!r.T_target_source.matrix().allFinite()) return std::nullopt;
+    return kf.T_world_sensor * r.T_target_source;
   }
 
   /// After the frame's pose T: a jump the recovery confirmed moves the sweep before; a recovery

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
@@ -131,6 +132,12 @@ void TrackingParams::validate() const {
           "bridge_sigma_translation", "must be > 0 [m]");
   require(finite(bridge_sigma_rotation) && bridge_sigma_rotation > 0.0, "bridge_sigma_rotation_deg",
           "must be > 0 [deg]");
+  require(finite(start_search_range) && start_search_range >= 0.0, "start_search_range",
+          "must be >= 0 [m] (0 = no start search)");
+  require(finite(start_search_step) && start_search_step > 0.0, "start_search_step",
+          "must be > 0 [m]");
+  require(start_search_axis.allFinite() && std::abs(start_search_axis.norm() - 1.0) < 1e-6,
+          "start_search_axis", "must be a unit vector [x, y, z] in the sensor frame");
   icp.validate();
   confidence.validate();
 }
@@ -158,7 +165,11 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
                   "floor_sigma_rotation_deg",
                   "bridge_sigma_translation",
                   "bridge_sigma_rotation_deg",
-                  "use_timestamps"});
+                  "use_timestamps",
+                  "start_search_range",
+                  "start_search_step",
+                  "start_search_axis",
+                  "start_search_matcher"});
   TrackingParams p;
   p.icp = IcpParams::load(node.child("icp"));
   p.confidence = ConfidenceParams::load(node.child("confidence"));
@@ -183,6 +194,17 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
   node.get("bridge_sigma_translation", p.bridge_sigma_translation);
   node.getDegAsRad("bridge_sigma_rotation_deg", p.bridge_sigma_rotation);
   node.get("use_timestamps", p.use_timestamps);
+  node.get("start_search_range", p.start_search_range);
+  node.get("start_search_step", p.start_search_step);
+  node.get("start_search_matcher", p.start_search_matcher);
+  if (node.has("start_search_axis")) {
+    std::vector<double> a;
+    node.get("start_search_axis", a);
+    if (a.size() != 3)
+      throw ConfigError(node.where("start_search_axis") + ": needs 3 numbers [x, y, z], got " +
+                        std::to_string(a.size()));
+    p.start_search_axis = Eigen::Vector3d(a[0], a[1], a[2]);
+  }
   validateAt(node, [&] {
     try {
       p.validate();

@@ -1,6 +1,11 @@
 #include "tracker.hpp"
 
+#include "obm/core/log.hpp"
+
 #include <algorithm>
+#include <string>
+#include <utility>
+#include <cmath>
 #include <vector>
 
 namespace obm::frontend {
@@ -43,26 +48,60 @@ Tracker::Tracker(const TrackingParams& params) : params_(params) {
 
 std::string Tracker::track(const PointCloud& source, const PreparedTarget& local_map,
                            const Isometry3d& T_guess, bool have_velocity, MatchResult& match,
-                           StageTimes& times) {
+                           StageTimes& times, const Isometry3d* extra_start) {
   const TrackingParams& tp = params_;
   const double inl_ref = recentInlierRatio();
-  {
-    ScopedStage s(times, "icp");
-    match = (have_velocity || !wide_gate_) ? icp_->match(source, local_map, T_guess)
-                                           : wide_gate_->match(source, local_map, T_guess);
-  }
   AcceptanceBounds bounds;
   bounds.min_quality = tp.min_quality;
   bounds.min_inlier_ratio = tp.relative_inlier_ratio * inl_ref;
   bounds.max_correction = have_velocity ? tp.max_correction : tp.recovery_max_correction;
   bounds.max_rotation =
       have_velocity ? tp.max_correction_rotation : 4.0 * tp.max_correction_rotation;
+  {
+    ScopedStage s(times, "icp");
+    if (have_velocity || !wide_gate_)
+      match = icp_->match(source, local_map, T_guess);
+    else
+      match = searchStart(source, local_map, T_guess, bounds, extra_start);
+  }
   std::string reason = rejectReason(match, T_guess, bounds);
   if (reason.empty()) {
     recent_inliers_.push_back(match.inlier_ratio);
     if (recent_inliers_.size() > 10) recent_inliers_.pop_front();
   }
   return reason;
+}
+
+MatchResult Tracker::searchStart(const PointCloud& source, const PreparedTarget& local_map,
+                                 const Isometry3d& T_guess, const AcceptanceBounds& bounds,
+                                 const Isometry3d* extra_start) const {
+  std::vector<std::pair<Isometry3d, std::string>> starts;
+  const double step = params_.start_search_step;
+  const auto k_max = static_cast<int>(std::floor(params_.start_search_range / step + 1e-9));
+  for (int k = 1; k <= k_max; ++k) {
+    for (const int sign : {1, -1}) {
+      Isometry3d T_start = T_guess;
+      T_start.translate(sign * k * step * params_.start_search_axis);
+      starts.emplace_back(T_start, std::to_string(sign * k * step) + " m");
+    }
+  }
+  if (extra_start) starts.emplace_back(*extra_start, "the scan matcher's pose");
+
+  MatchResult best = wide_gate_->match(source, local_map, T_guess);
+  bool best_ok = rejectReason(best, T_guess, bounds).empty();
+  for (const auto& [T_start, what] : starts) {
+    MatchResult m = wide_gate_->match(source, local_map, T_start);
+    const bool ok = rejectReason(m, T_guess, bounds).empty();
+    OBM_LOG_DEBUG("tracker", "start search from " << what << ": inlier ratio " << m.inlier_ratio
+                                                  << (ok ? "" : " (rejected)"));
+    // The start that pairs the most points within the inlier threshold; an accepted match
+    // always beats a rejected one, and ties keep the earlier start (the last pose first).
+    if ((ok && !best_ok) || (ok == best_ok && m.inlier_ratio > best.inlier_ratio)) {
+      best = std::move(m);
+      best_ok = ok;
+    }
+  }
+  return best;
 }
 
 double Tracker::recentInlierRatio() const {

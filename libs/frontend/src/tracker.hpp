@@ -45,7 +45,7 @@ class Tracker {
   /// was) and the recovery's correction bounds apply.
   std::string track(const PointCloud& source, const PreparedTarget& local_map,
                     const Isometry3d& T_guess, bool have_velocity, MatchResult& match,
-                    StageTimes& times);
+                    StageTimes& times, const Isometry3d* extra_start = nullptr);
 
   /// Median inlier ratio of the last accepted frames (0 before the first).
   double recentInlierRatio() const;
@@ -59,6 +59,12 @@ class Tracker {
   const IcpMatcher* wideGate() const { return wide_gate_.get(); }
 
  private:
+  /// The wide-gate ICP from T_guess and from the starts of TrackingParams::start_search_range;
+  /// the accepted match (under `bounds`) with the highest inlier ratio, else the best rejected.
+  MatchResult searchStart(const PointCloud& source, const PreparedTarget& local_map,
+                          const Isometry3d& T_guess, const AcceptanceBounds& bounds,
+                          const Isometry3d* extra_start) const;
+
   TrackingParams params_;
   std::unique_ptr<IcpMatcher> icp_;        // frame → local map
   std::unique_ptr<IcpMatcher> wide_gate_;  // frame → local map, annealed wide gate

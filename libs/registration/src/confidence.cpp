@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "obm/core/errors.hpp"
 #include "obm/registration/match_result.hpp"
@@ -177,6 +178,26 @@ double matchQuality(double inlier_ratio, double rmse, double overlap, double con
   const double q_cond = credit(conditioning, c.conditioning_ref);
   const double q = q_inliers * q_rmse * q_overlap * q_cond;
   return std::isfinite(q) ? q : 0.0;
+}
+
+double weakestTranslationSigma(const Matrix6d& information, Eigen::Vector3d* direction) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  if (direction) *direction = Eigen::Vector3d::UnitX();
+  if (!information.allFinite()) return kInf;
+  // Ω is symmetric positive semi-definite; an LDLT that is not positive definite means a
+  // direction with no information at all.
+  const Matrix6d omega = 0.5 * (information + information.transpose());
+  Eigen::SelfAdjointEigenSolver<Matrix6d> full(omega);
+  if (full.info() != Eigen::Success) return kInf;
+  const double top = full.eigenvalues().maxCoeff();
+  if (!(top > 0.0) || full.eigenvalues().minCoeff() <= top * 1e-14) return kInf;
+  const Matrix6d cov = full.eigenvectors() * full.eigenvalues().cwiseInverse().asDiagonal() *
+                       full.eigenvectors().transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> tt(0.5 * (cov.topLeftCorner<3, 3>() +
+                                                           cov.topLeftCorner<3, 3>().transpose()));
+  if (tt.info() != Eigen::Success) return kInf;
+  if (direction) *direction = tt.eigenvectors().col(2);
+  return std::sqrt(std::max(0.0, tt.eigenvalues()(2)));
 }
 
 }  // namespace obm

@@ -22,6 +22,7 @@
 #include "obm/eval/trajectory_metrics.hpp"
 #include "obm/io/kitti.hpp"
 #include "obm/io/trajectory.hpp"
+#include "obm/registration/confidence.hpp"
 #include "sources.hpp"
 
 namespace fs = std::filesystem;
@@ -29,6 +30,16 @@ namespace fs = std::filesystem;
 namespace obm::slam {
 
 namespace {
+
+/// The text of a double-quoted CSV field: quotes doubled.
+std::string csvQuoted(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    if (c == '"') out += '"';
+    out += c;
+  }
+  return out;
+}
 
 constexpr const char* kLog = "obm-map";
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -149,8 +160,9 @@ RunSummary MappingApp::run() {
   std::size_t n = 0;
   Isometry3d T_up_sensor = Isometry3d::Identity();
   struct FrameRow {
-    double quality, inlier_ratio, rmse;
+    double quality, inlier_ratio, rmse, conditioning, weakest_sigma;
     std::size_t points_in, points_used;
+    std::string reason;
   };
   std::vector<FrameRow> frame_rows;
   const io::KittiCalib* calib = source->kittiCalib();
@@ -181,7 +193,8 @@ RunSummary MappingApp::run() {
     if (n == 0) T_up_sensor = source->T_up_sensor();
     const frontend::FrameResult r = fe.process(cloud);
     frame_rows.push_back({r.match.quality, r.match.inlier_ratio, r.match.rmse,
-                          r.preprocess.points_in, r.preprocess.points_out});
+                          r.match.conditioning, weakestTranslationSigma(r.match.information),
+                          r.preprocess.points_in, r.preprocess.points_out, r.reason});
     ++n;
     if (r.keyframe && mapper && r.keyframe_id % cfg.output.map_every == 0) {
       ScopedStage s(app_times, "octomap_queue");
@@ -230,7 +243,7 @@ RunSummary MappingApp::run() {
     const auto kf_of = fe.frameKeyframes();
     std::ostringstream os;
     os << "# frame,timestamp,status,keyframe_id,is_keyframe,quality,inlier_ratio,rmse_m,"
-          "points_in,points_used\n";
+          "points_in,points_used,conditioning,weakest_sigma_m,reason\n";
     std::vector<bool> is_kf(traj.size(), false);
     for (const auto& kf : fe.keyframes())
       if (kf.frame_index < is_kf.size()) is_kf[kf.frame_index] = true;
@@ -239,8 +252,9 @@ RunSummary MappingApp::run() {
       os << i << ',' << stamps[i] << ',' << frontend::toString(statuses[i]) << ',' << kf_of[i]
          << ',' << (is_kf[i] ? 1 : 0) << ',' << std::setprecision(6) << frame_rows[i].quality << ','
          << frame_rows[i].inlier_ratio << ',' << frame_rows[i].rmse << ','
-         << frame_rows[i].points_in << ',' << frame_rows[i].points_used << std::setprecision(17)
-         << '\n';
+         << frame_rows[i].points_in << ',' << frame_rows[i].points_used << ','
+         << frame_rows[i].conditioning << ',' << frame_rows[i].weakest_sigma << ",\""
+         << csvQuoted(frame_rows[i].reason) << '"' << std::setprecision(17) << '\n';
     writeTextAtomically(file("frames.csv"), os.str());
   }
   {
@@ -254,7 +268,7 @@ RunSummary MappingApp::run() {
          << fe.keyframes()[lc.to].frame_index << ',' << (lc.accepted ? 1 : 0) << ',' << lc.quality
          << ',' << lc.inlier_ratio << ',' << lc.descriptor_distance << ',' << lc.correction << ','
          << t.x() << ',' << t.y() << ',' << t.z() << ',' << q.x() << ',' << q.y() << ',' << q.z()
-         << ',' << q.w() << ",\"" << lc.reason << "\"\n";
+         << ',' << q.w() << ",\"" << csvQuoted(lc.reason) << "\"\n";
     }
     writeTextAtomically(file("loops.csv"), os.str());
   }

@@ -128,6 +128,21 @@ struct TrackingParams {
   /// Scale the constant-velocity guess by the time between frames (time stamps), so dropped
   /// frames are bridged correctly; false = one frame, one velocity step.
   bool use_timestamps = true;
+  /// Start search for a frame without a motion prior (the second frame: the sensor may already
+  /// be moving at speed, and the guess is the last pose). A street of repeated facades has a
+  /// local minimum every few metres along it, each as well-conditioned as the true one: the
+  /// wide-gate ICP from the last pose can lock onto the wrong one and the velocity it gives
+  /// keeps every later frame there. The wide-gate ICP also starts from the last pose moved by
+  /// ±k·start_search_step along start_search_axis (sensor frame; the driving direction),
+  /// k = 1 … start_search_range / step, and the start that pairs the most source points within
+  /// the inlier threshold wins. 0 = the last pose only.
+  double start_search_range = 0.0;  ///< [m]
+  double start_search_step = 1.0;   ///< [m]
+  Eigen::Vector3d start_search_axis = Eigen::Vector3d::UnitX();  ///< unit, sensor frame
+  /// One more start for the search: the scan matcher's registration of the frame against the
+  /// last keyframe (the network, for the OBMNet matchers: a global registration needs no
+  /// prior). Runs also when start_search_range is 0.
+  bool start_search_matcher = false;
 
   static TrackingParams load(const ConfigNode& node);
   void validate() const;

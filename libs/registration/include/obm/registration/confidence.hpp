@@ -49,4 +49,12 @@ AlignmentStats evaluateAlignment(const std::vector<Vector3f>& source_points,
 double matchQuality(double inlier_ratio, double rmse, double overlap, double conditioning,
                     double max_correspondence_distance, const ConfidenceParams& confidence);
 
+/// Standard deviation [m] of the translation along its least-constrained direction: the square
+/// root of the largest eigenvalue of the translation block of Ω⁻¹ (rotation marginalised, so a
+/// direction that only a rotation can explain counts as unconstrained). A sweep in a straight
+/// corridor of plain walls has a large value along the corridor: ICP's translation there comes
+/// from the start pose, not from the geometry (a slide). `direction` (optional) gets the unit
+/// direction in the source frame. +∞ for a singular or non-finite Ω.
+double weakestTranslationSigma(const Matrix6d& information, Eigen::Vector3d* direction = nullptr);
+
 }  // namespace obm
