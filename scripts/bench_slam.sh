@@ -15,7 +15,10 @@
 #
 # Options:
 #   --build DIR         build folder with bin/obm-map and bin/obm-sim      [default: ROOT/build]
-#   --only LIST         comma-separated subset of: urban,k00,indoor,mrpt   [default: all]
+#   --only LIST         comma-separated subset of: urban,k00,indoor,mrpt,suite
+#                       [default: urban,k00,indoor,mrpt]; suite = scripts/slam_suite.sh (the
+#                       robustness suite, ICP-only and OBMNet pipelines) into DATA_DIR/suite and
+#                       OUT_DIR/suite
 #                       (`--only table` runs nothing and rebuilds the table from OUT_DIR)
 #   --k00-frames N      frames of kitti00_gt (the preset stops at 1000)    [default: 1000]
 #   --seed S            obm-sim master seed of every sequence              [default: 5]
@@ -41,7 +44,7 @@ NICE=5
 SEED=5
 RESUME=0
 
-usage() { sed -n '2,29p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,32p' "$0" | sed 's/^# \{0,1\}//'; }
 POS=()
 while [[ $# -gt 0 ]]; do
   case $1 in
@@ -137,6 +140,12 @@ if want indoor; then
   ensure_seq fr2desk indoor_tum_fr2_desk "$FR2_FRAMES"
   run_map fr1xyz -c "$INDOOR_CFG" -i "$DATA/fr1xyz"
   run_map fr2desk -c "$INDOOR_CFG" -i "$DATA/fr2desk"
+fi
+
+if want suite; then
+  suite_args=(--build "$BUILD" --config "$KITTI_CFG" --seed "$SEED" --nice "$NICE")
+  [[ $RESUME -eq 1 ]] && suite_args+=(--resume)
+  "$ROOT/scripts/slam_suite.sh" "${suite_args[@]}" "$DATA/suite" "$OUT/suite"
 fi
 
 # --- MRPT icp-slam on a prefix of the urban rawlog ----------------------------------------------

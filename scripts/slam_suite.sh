@@ -9,6 +9,7 @@
 #   corridor     config/sim/suite_corridor.yaml: starts at 12 m/s in a straight street of identical,
 #                gap-free facades (an ICP local minimum every ~2 m along it)
 #   open_road    config/sim/suite_open_road.yaml: starts at 15 m/s on an open road, no buildings
+#   urban        kitti_like_urban (seed S), gap-free: the reference the handling must not change
 #   turn_gaps    kitti_like_urban (seed S) with 1, 2 and 3 s of sweeps lost inside three turns
 #                (the time stamps show the gaps; scripts/drop_sweeps.py)
 #   turn_jumps   the same places with 1 s lost and the time stamps rewritten (a sudden jump)
@@ -32,13 +33,13 @@ set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 BUILD=$ROOT/build
 CFG=$ROOT/config/map_kitti.yaml
-ONLY=corridor,open_road,turn_gaps,turn_jumps,revisits
+ONLY=corridor,open_road,urban,turn_gaps,turn_jumps,revisits
 SEED=5
 NICE=5
 RESUME=0
 SETS=()
 
-usage() { sed -n '2,33p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,34p' "$0" | sed 's/^# \{0,1\}//'; }
 POS=()
 while [[ $# -gt 0 ]]; do
   case $1 in
@@ -123,8 +124,9 @@ if want open_road; then
   simulate open_road -c "$ROOT/config/sim/suite_open_road.yaml"
   both open_road "$DATA/open_road"
 fi
-if want turn_gaps || want turn_jumps; then
+if want urban || want turn_gaps || want turn_jumps; then
   simulate urban_s$SEED -p kitti_like_urban -s "$SEED"
+  want urban && both urban "$DATA/urban_s$SEED"
   read -r t1 t2 t3 <<< "$(turn_frames "$DATA/urban_s$SEED" 3)"
   if want turn_gaps && [[ ! -f $DATA/turn_gaps/times.txt ]]; then
     rm -rf "$DATA/turn_gaps"

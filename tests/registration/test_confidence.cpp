@@ -220,4 +220,25 @@ TEST(Quality, CombinesTheFourTerms) {
 }
 
 }  // namespace
+TEST(WeakestTranslationSigma, IsTheLargestMarginalTranslationDeviation) {
+  // Diagonal information: σ along y is 1/√4 = 0.5 m, the others smaller.
+  Matrix6d omega = Matrix6d::Zero();
+  omega.diagonal() << 100.0, 4.0, 25.0, 1e4, 1e4, 1e4;
+  Eigen::Vector3d dir;
+  EXPECT_NEAR(weakestTranslationSigma(omega, &dir), 0.5, 1e-12);
+  EXPECT_NEAR(std::abs(dir.y()), 1.0, 1e-12);
+  // A translation that a rotation can explain is marginalised: coupling t_x with θ_z raises σ_x
+  // above 1/√Ω_xx even though Ω_xx alone is large.
+  Matrix6d coupled = Matrix6d::Identity() * 100.0;
+  coupled(0, 5) = coupled(5, 0) = 99.0;
+  const double sigma = weakestTranslationSigma(coupled, &dir);
+  EXPECT_GT(sigma, 0.5);
+  EXPECT_NEAR(std::abs(dir.x()), 1.0, 1e-9);
+  // No information along z at all: unconstrained.
+  Matrix6d singular = Matrix6d::Identity();
+  singular(2, 2) = 0.0;
+  EXPECT_TRUE(std::isinf(weakestTranslationSigma(singular)));
+  EXPECT_TRUE(std::isinf(weakestTranslationSigma(Matrix6d::Constant(NAN))));
+}
+
 }  // namespace obm

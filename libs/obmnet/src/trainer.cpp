@@ -616,7 +616,11 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
     }
     if (start_epoch > 0 && writer)
       OBM_LOG_INFO("obm-train", "resuming after epoch " << start_epoch << " (best validation score "
-                                                        << best << " deg, " << wall0
+                                                        << best
+                                                        << (I.cfg.select_on == TrainConfig::Selection::MieT
+                                                                ? " m, "
+                                                                : " deg, ")
+                                                        << wall0
                                                         << " s trained)");
   }
   const std::string csv = I.out + "/train_log.csv";
