@@ -154,6 +154,38 @@ TEST(FrontendParts, TheLastKeyframeStepTakesTheMatchersRegistrationAndTimesItByM
   EXPECT_EQ(times.entries().count("obmnet"), 0u);
 }
 
+TEST(FrontendParts, AfterAGapTheRecoveryMayCorrectTheTurnTheGuessExtrapolated) {
+  // The guess extrapolated a turn over a gap in the time stamps, 30° more than the car turned:
+  // beyond the 4 × 5° a recovery may correct, unless the bound grows by the extrapolated turn.
+  TrackingParams tp;  // max_correction_rotation 5°, recovery_gate 4 m, ±10°, ±20° hypotheses
+  const Tracker tracker(tp);
+  const IcpMatcher icp;
+  const Isometry3d T_true = shifted(2.4);
+  const Keyframe kf = keyframe(3, Isometry3d::Identity(), 8.0, Isometry3d::Identity());
+  const Keyframe now = keyframe(4, Isometry3d::Identity(), 8.5, T_true);  // the sweep
+  const PreparedTarget local_map(kf.cloud, tracker.icp().icpParams().targetOptions());  // world
+  Isometry3d guess = T_true;
+  guess.rotate(Eigen::AngleAxisd(30.0 * kDegToRad, Eigen::Vector3d::UnitZ()));
+  Isometry3d last_motion = Isometry3d::Identity();
+  last_motion.rotate(Eigen::AngleAxisd(3.0 * kDegToRad, Eigen::Vector3d::UnitZ()));
+  const auto recover = [&](double extrapolated_deg) {
+    Recovery recovery(tp, tracker.wideGate(), icp);
+    const RecoveryInput in{now.cloud, guess,          local_map, kf, 4, last_motion,
+                           0.8,       extrapolated_deg * kDegToRad};
+    FrameResult fr;
+    StageTimes times;
+    recovery.startSweep();
+    recovery.recover(in, "tracking said no", fr, times);
+    return fr;
+  };
+  const FrameResult without = recover(0.0);
+  EXPECT_NE(without.status, TrackingStatus::Recovered) << without.reason;
+  const FrameResult with = recover(35.0);
+  ASSERT_EQ(with.status, TrackingStatus::Recovered) << with.reason;
+  EXPECT_LT((with.match.T_target_source.translation() - T_true.translation()).norm(), 0.05);
+  EXPECT_LT(rotationAngle(with.match.T_target_source.linear()) * kRadToDeg, 0.2);
+}
+
 TEST(FrontendParts, AnAsynchronousLocalMapIsInstalledAFixedNumberOfFramesLater) {
   LocalMapParams lp;
   lp.async = true;

@@ -1,5 +1,6 @@
 #include "obm/frontend/frontend.hpp"
 
+#include <algorithm>
 #include <filesystem>
 #include <optional>
 #include <random>
@@ -222,9 +223,15 @@ struct Frontend::Impl {
       fr.status = TrackingStatus::Tracked;
       return;
     }
-    const RecoveryInput in{source,          T_guess,          local_map.target(),
-                           keyframes.back(), keyframes.size(), motion.lastMotion(),
-                           inl_ref};
+    const Isometry3d last_motion = motion.lastMotion();
+    const double extrapolated =
+        p.tracking.recovery_gap_rotation
+            ? std::max(0.0, rotationAngle((T_world_current.inverse() * T_guess).linear()) -
+                                rotationAngle(last_motion.linear()))
+            : 0.0;
+    const RecoveryInput in{source,           T_guess,          local_map.target(),
+                           keyframes.back(), keyframes.size(), last_motion,
+                           inl_ref,          extrapolated};
     recovery.recover(in, reason, fr, times);
   }
 

@@ -159,6 +159,7 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
                   "recovery_agreement_rotation_deg",
                   "recovery_confirm_jumps",
                   "recovery_confirmed_relative_inlier_ratio",
+                  "recovery_gap_rotation",
                   "max_bridge_frames",
                   "information_scale",
                   "floor_sigma_translation",
@@ -187,6 +188,7 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
   node.getDegAsRad("recovery_agreement_rotation_deg", p.recovery_agreement_rotation);
   node.get("recovery_confirm_jumps", p.recovery_confirm_jumps);
   node.get("recovery_confirmed_relative_inlier_ratio", p.recovery_confirmed_relative_inlier_ratio);
+  node.get("recovery_gap_rotation", p.recovery_gap_rotation);
   node.get("max_bridge_frames", p.max_bridge_frames);
   node.get("information_scale", p.information_scale);
   node.get("floor_sigma_translation", p.floor_sigma_translation);

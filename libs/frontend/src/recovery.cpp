@@ -1,5 +1,7 @@
 #include "recovery.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <limits>
 #include <vector>
 
@@ -72,7 +74,7 @@ void Recovery::recover(const RecoveryInput& in, const std::string& reason, Frame
                        StageTimes& times) {
   const TrackingParams& tp = params_;
   Attempt a{in, fr, times, reason, {}, {}, {}, {}, {}, {}};
-  const double max_rot = 4.0 * tp.max_correction_rotation;
+  const double max_rot = 4.0 * tp.max_correction_rotation + in.extrapolated_rotation;
   a.recovered = {tp.recovery_min_quality, tp.recovery_relative_inlier_ratio * in.inlier_reference,
                  tp.recovery_max_correction, max_rot};
   a.confirmed = a.recovered;
@@ -98,7 +100,13 @@ bool Recovery::wideGate(Attempt& a) {
   Eigen::Vector3d axis = logSO3(in.last_motion.linear());
   axis = axis.norm() > 0.5 * kDegToRad ? axis.normalized() : Eigen::Vector3d::UnitZ();
   std::vector<double> angles{0.0};
-  for (int k = 1; k <= tp.recovery_rotation_hypotheses; ++k) {
+  // Over a gap the hypotheses cover the extrapolated turn too.
+  const int k_max = tp.recovery_rotation_hypotheses == 0
+                        ? 0
+                        : std::max(tp.recovery_rotation_hypotheses,
+                                   static_cast<int>(std::ceil(
+                                       in.extrapolated_rotation / tp.recovery_rotation_step)));
+  for (int k = 1; k <= k_max; ++k) {
     angles.push_back(k * tp.recovery_rotation_step);
     angles.push_back(-k * tp.recovery_rotation_step);
   }
@@ -114,6 +122,14 @@ bool Recovery::wideGate(Attempt& a) {
       r = wide_gate_->match(in.source, in.local_map, T_start);
     }
     const std::string w = rejectReason(r, in.T_guess, a.recovered);
+    OBM_LOG_DEBUG(kLog, "frame " << a.fr.index << ": wide-gate recovery from " << angle * kRadToDeg
+                                 << " deg: inlier ratio " << r.inlier_ratio << ", fitness "
+                                 << r.fitness << ", correction "
+                                 << (in.T_guess.inverse() * r.T_target_source).translation().norm()
+                                 << " m / "
+                                 << rotationAngle((in.T_guess.inverse() * r.T_target_source).linear()) *
+                                        kRadToDeg
+                                 << " deg" << (w.empty() ? "" : " (" + w + ")"));
     if (w.empty() && (!found || r.inlier_ratio > best.inlier_ratio)) {
       best = r;
       found = true;

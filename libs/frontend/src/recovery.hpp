@@ -50,6 +50,11 @@ struct RecoveryInput {
   std::size_t keyframes = 0;               ///< number of keyframes
   Isometry3d last_motion;                  ///< the motion model's last relative motion
   double inlier_reference = 0.0;           ///< median inlier ratio of the recent tracked frames
+  /// [rad] how much more the guess turns from the last pose than the last motion did: the turn
+  /// the motion model extrapolated over a gap in the time stamps (0 without a gap). A guess
+  /// extrapolated by X may be wrong by X (the car may have stopped turning when the sweeps
+  /// stopped coming), so the recovery's rotation bound and hypotheses grow by it.
+  double extrapolated_rotation = 0.0;
 };
 
 class Recovery {

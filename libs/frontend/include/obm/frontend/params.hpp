@@ -111,6 +111,11 @@ struct TrackingParams {
   /// share of the recent inlier ratio: two registrations from the same guess can agree on the
   /// same wrong pose (metres along a straight street). [0, 1]
   double recovery_confirmed_relative_inlier_ratio = 0.0;
+  /// After a gap in the time stamps the constant-velocity guess extrapolates the turn rate over
+  /// the gap, and the car may have turned less or more meanwhile: the recovery's rotation bound
+  /// (4 × max_correction_rotation) and its rotation hypotheses grow by the turn extrapolated
+  /// beyond one frame's motion. false = the bound and hypotheses of a frame without a gap.
+  bool recovery_gap_rotation = false;
   /// After this many bridged frames in a row the local map is restarted from the current frame
   /// (a keyframe joined to the previous one by a weak bridge edge). >= 1.
   std::size_t max_bridge_frames = 10;
