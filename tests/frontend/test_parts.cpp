@@ -154,11 +154,11 @@ TEST(FrontendParts, TheLastKeyframeStepTakesTheMatchersRegistrationAndTimesItByM
   EXPECT_EQ(times.entries().count("obmnet"), 0u);
 }
 
-TEST(FrontendParts, AfterAGapTheRecoveryMayCorrectTheTurnTheGuessExtrapolated) {
+TEST(FrontendParts, AfterAGapOrWithAFitLikeTrackingTheRecoveryMayCorrectALargeTurn) {
   // The guess extrapolated a turn over a gap in the time stamps, 30° more than the car turned:
   // beyond the 4 × 5° a recovery may correct, unless the bound grows by the extrapolated turn.
   TrackingParams tp;  // max_correction_rotation 5°, recovery_gate 4 m, ±10°, ±20° hypotheses
-  const Tracker tracker(tp);
+  const Tracker tracker(tp);  // its wide gate does not depend on the keys changed below
   const IcpMatcher icp;
   const Isometry3d T_true = shifted(2.4);
   const Keyframe kf = keyframe(3, Isometry3d::Identity(), 8.0, Isometry3d::Identity());
@@ -168,7 +168,8 @@ TEST(FrontendParts, AfterAGapTheRecoveryMayCorrectTheTurnTheGuessExtrapolated) {
   guess.rotate(Eigen::AngleAxisd(30.0 * kDegToRad, Eigen::Vector3d::UnitZ()));
   Isometry3d last_motion = Isometry3d::Identity();
   last_motion.rotate(Eigen::AngleAxisd(3.0 * kDegToRad, Eigen::Vector3d::UnitZ()));
-  const auto recover = [&](double extrapolated_deg) {
+  const auto recover = [&](double extrapolated_deg, double large_turn_ratio = 0.0) {
+    tp.recovery_large_turn_relative_inlier_ratio = large_turn_ratio;
     Recovery recovery(tp, tracker.wideGate(), icp);
     const RecoveryInput in{now.cloud, guess,          local_map, kf, 4, last_motion,
                            0.8,       extrapolated_deg * kDegToRad};
@@ -184,6 +185,11 @@ TEST(FrontendParts, AfterAGapTheRecoveryMayCorrectTheTurnTheGuessExtrapolated) {
   ASSERT_EQ(with.status, TrackingStatus::Recovered) << with.reason;
   EXPECT_LT((with.match.T_target_source.translation() - T_true.translation()).norm(), 0.05);
   EXPECT_LT(rotationAngle(with.match.T_target_source.linear()) * kRadToDeg, 0.2);
+  // Without a gap (sweeps lost, the stamps regular) nothing was extrapolated, but a registration
+  // 30° from the guess that fits as well as the tracked frames is taken too.
+  const FrameResult large_turn = recover(0.0, 0.95);
+  ASSERT_EQ(large_turn.status, TrackingStatus::Recovered) << large_turn.reason;
+  EXPECT_LT((large_turn.match.T_target_source.translation() - T_true.translation()).norm(), 0.05);
 }
 
 TEST(FrontendParts, AnAsynchronousLocalMapIsInstalledAFixedNumberOfFramesLater) {

@@ -122,6 +122,9 @@ void TrackingParams::validate() const {
   require(!recovery_confirm_jumps || recovery_agreement_translation > 0.0,
           "recovery_confirm_jumps",
           "needs recovery_agreement_translation > 0 (the agreement that confirms a jump)");
+  require(recovery_large_turn_relative_inlier_ratio >= 0.0 &&
+              recovery_large_turn_relative_inlier_ratio <= 1.0,
+          "recovery_large_turn_relative_inlier_ratio", "must be in [0, 1] (0 = never)");
   require(max_bridge_frames >= 1, "max_bridge_frames", "must be >= 1");
   require(finite(information_scale) && information_scale > 0.0, "information_scale", "must be > 0");
   require(finite(floor_sigma_translation) && floor_sigma_translation >= 0.0,
@@ -160,6 +163,7 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
                   "recovery_confirm_jumps",
                   "recovery_confirmed_relative_inlier_ratio",
                   "recovery_gap_rotation",
+                  "recovery_large_turn_relative_inlier_ratio",
                   "max_bridge_frames",
                   "information_scale",
                   "floor_sigma_translation",
@@ -189,6 +193,8 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
   node.get("recovery_confirm_jumps", p.recovery_confirm_jumps);
   node.get("recovery_confirmed_relative_inlier_ratio", p.recovery_confirmed_relative_inlier_ratio);
   node.get("recovery_gap_rotation", p.recovery_gap_rotation);
+  node.get("recovery_large_turn_relative_inlier_ratio",
+           p.recovery_large_turn_relative_inlier_ratio);
   node.get("max_bridge_frames", p.max_bridge_frames);
   node.get("information_scale", p.information_scale);
   node.get("floor_sigma_translation", p.floor_sigma_translation);

@@ -91,6 +91,12 @@ bool Recovery::agree(const Isometry3d& T_a, const Isometry3d& T_b) const {
          rotationAngle(d.linear()) <= params_.recovery_agreement_rotation;
 }
 
+bool Recovery::fitsLikeTracking(const MatchResult& r, const RecoveryInput& in) const {
+  const double share = params_.recovery_large_turn_relative_inlier_ratio;
+  return share > 0.0 && in.inlier_reference > 0.0 &&
+         r.inlier_ratio >= share * in.inlier_reference;
+}
+
 /// Hypotheses: the guess, then the guess turned about the axis of the last motion (a car's
 /// vertical) by ±k·step — a wrong turn rate is the usual cause of a lost track.
 bool Recovery::wideGate(Attempt& a) {
@@ -110,6 +116,8 @@ bool Recovery::wideGate(Attempt& a) {
     angles.push_back(k * tp.recovery_rotation_step);
     angles.push_back(-k * tp.recovery_rotation_step);
   }
+  AcceptanceBounds any_turn = a.recovered;
+  any_turn.max_rotation = M_PI;
   MatchResult best;
   bool found = false;
   std::string why;
@@ -121,7 +129,9 @@ bool Recovery::wideGate(Attempt& a) {
       ScopedStage s(a.times, "icp");
       r = wide_gate_->match(in.source, in.local_map, T_start);
     }
-    const std::string w = rejectReason(r, in.T_guess, a.recovered);
+    std::string w = rejectReason(r, in.T_guess, a.recovered);
+    if (!w.empty() && fitsLikeTracking(r, in) && rejectReason(r, in.T_guess, any_turn).empty())
+      w.clear();  // beyond the rotation bound, but as good a fit as the tracked frames
     OBM_LOG_DEBUG(kLog, "frame " << a.fr.index << ": wide-gate recovery from " << angle * kRadToDeg
                                  << " deg: inlier ratio " << r.inlier_ratio << ", fitness "
                                  << r.fitness << ", correction "

@@ -116,6 +116,12 @@ struct TrackingParams {
   /// (4 × max_correction_rotation) and its rotation hypotheses grow by the turn extrapolated
   /// beyond one frame's motion. false = the bound and hypotheses of a frame without a gap.
   bool recovery_gap_rotation = false;
+  /// A wide-gate registration that corrects the guess by more than the recovery's rotation bound,
+  /// but pairs at least this share of the recent median inlier ratio (as many points as the
+  /// tracked frames: a wrong local minimum degrees away does not), is taken. It catches sweeps
+  /// lost in a turn without a gap in the time stamps, where the guess falls short of the turn.
+  /// 0 = never (the bound holds). [0, 1]
+  double recovery_large_turn_relative_inlier_ratio = 0.0;
   /// After this many bridged frames in a row the local map is restarted from the current frame
   /// (a keyframe joined to the previous one by a weak bridge edge). >= 1.
   std::size_t max_bridge_frames = 10;
