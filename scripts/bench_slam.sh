@@ -61,14 +61,9 @@ while [[ $# -gt 0 ]]; do
     *) POS+=("$1"); shift ;;
   esac
 done
-[[ ${#POS[@]} -eq 2 ]] || { usage >&2; exit 2; }
-mkdir -p "${POS[0]}" "${POS[1]}"
-DATA=$(cd "${POS[0]}" && pwd)
-OUT=$(cd "${POS[1]}" && pwd)
-MAP=$BUILD/bin/obm-map
-SIM=$BUILD/bin/obm-sim
-[[ -x $MAP && -x $SIM ]] || { echo "bench_slam.sh: $MAP / $SIM not built" >&2; exit 1; }
-want() { [[ ",$ONLY," == *",$1,"* ]]; }
+# shellcheck source=scripts/bench_common.sh
+source "$ROOT/scripts/bench_common.sh"
+bench_setup bench_slam.sh
 load1() { cut -d' ' -f1 /proc/loadavg; }
 
 # ensure_seq DIR PRESET FRAMES: simulate DATA/DIR unless it exists with the same preset, seed and

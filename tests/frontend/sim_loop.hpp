@@ -2,6 +2,8 @@
 // A short simulated drive around one block of a small procedural city (libs/sim), generated in
 // memory once per test program: LiDAR sweeps in the sensor frame and the ground-truth poses
 // T_world_sensor with the first sweep's frame as the world (as the front-end estimates them).
+#include <algorithm>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -20,11 +22,33 @@ struct SimLoop {
   std::vector<Isometry3d> truth;   ///< T_world_sensor, truth[0] = I
 };
 
+/// Simulates the sequence of the obm-sim configuration `yaml` in memory: its first `max_frames`
+/// sweeps (0 = all), sweep i with noise seed `noise_seed + i`, stamps and poses relative to the
+/// first sweep.
+inline SimLoop simulateDrive(const char* yaml, const std::string& origin, std::size_t max_frames,
+                             std::uint64_t noise_seed) {
+  sim::SimConfig cfg = sim::SimConfig::load(ConfigNode::fromString(yaml, origin));
+  sim::SequenceSimulator simulator(cfg);
+  simulator.prepare();
+  const sim::Trajectory& traj = simulator.trajectory();
+  sim::RaycastScene scene(simulator.scene().mesh);
+  sim::LidarSimulator lidar(cfg.sensor.lidar);
+  SimLoop out;
+  const Isometry3d T_0_world = traj.poses.front().inverse();
+  const std::size_t n = max_frames > 0 ? std::min(max_frames, traj.size()) : traj.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    sim::LidarSweep s = lidar.simulate(scene, traj.poses[i], traj.stamps[i], noise_seed + i);
+    s.cloud.timestamp = traj.stamps[i] - traj.stamps.front();
+    out.sweeps.push_back(std::move(s.cloud));
+    out.truth.push_back(T_0_world * traj.poses[i]);
+  }
+  return out;
+}
+
 /// One loop around a 60 m × 55 m block at 10 m/s, sweeps at 4 Hz (2.5 m apart), a 64-ring LiDAR
 /// with 0.8° columns and 2 cm range noise: ~126 sweeps of ~20k points.
 inline const SimLoop& simLoop() {
-  static const SimLoop loop = [] {
-    const char* yaml = R"(
+  static const SimLoop loop = simulateDrive(R"(
 name: frontend_test_loop
 seed: 7
 frames: 0
@@ -52,23 +76,8 @@ trajectory:
   turn_speed: 6.0
 output:
   format: kitti
-)";
-    sim::SimConfig cfg = sim::SimConfig::load(ConfigNode::fromString(yaml, "frontend_test_loop"));
-    sim::SequenceSimulator simulator(cfg);
-    simulator.prepare();
-    const sim::Trajectory& traj = simulator.trajectory();
-    sim::RaycastScene scene(simulator.scene().mesh);
-    sim::LidarSimulator lidar(cfg.sensor.lidar);
-    SimLoop out;
-    const Isometry3d T_0_world = traj.poses.front().inverse();
-    for (std::size_t i = 0; i < traj.size(); ++i) {
-      sim::LidarSweep s = lidar.simulate(scene, traj.poses[i], traj.stamps[i], 100 + i);
-      s.cloud.timestamp = traj.stamps[i] - traj.stamps.front();
-      out.sweeps.push_back(std::move(s.cloud));
-      out.truth.push_back(T_0_world * traj.poses[i]);
-    }
-    return out;
-  }();
+)",
+                                            "frontend_test_loop", 0, 100);
   return loop;
 }
 

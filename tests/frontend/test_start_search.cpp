@@ -4,11 +4,7 @@
 // every later frame in the wrong place while each is reported "tracked".
 #include <gtest/gtest.h>
 
-#include "obm/config/config_node.hpp"
 #include "obm/frontend/frontend.hpp"
-#include "obm/sim/lidar.hpp"
-#include "obm/sim/scene.hpp"
-#include "obm/sim/simulator.hpp"
 #include "sim_loop.hpp"
 
 namespace obm::frontend {
@@ -16,15 +12,9 @@ namespace {
 
 using test::poseError;
 
-struct Corridor {
-  std::vector<PointCloud> sweeps;
-  std::vector<Isometry3d> truth;  // T_world_sensor, truth[0] = I
-};
-
 /// 20 sweeps at 10 Hz along the first straight of config/sim/suite_corridor.yaml (fewer columns).
-const Corridor& corridor() {
-  static const Corridor c = [] {
-    const char* yaml = R"(
+const test::SimLoop& corridor() {
+  static const test::SimLoop c = test::simulateDrive(R"(
 name: start_search_corridor
 seed: 5
 scene:
@@ -61,23 +51,7 @@ trajectory:
   speed: 12.0
 output:
   format: kitti
-)";
-    sim::SimConfig cfg = sim::SimConfig::load(ConfigNode::fromString(yaml, "corridor"));
-    sim::SequenceSimulator simulator(cfg);
-    simulator.prepare();
-    const sim::Trajectory& traj = simulator.trajectory();
-    sim::RaycastScene scene(simulator.scene().mesh);
-    sim::LidarSimulator lidar(cfg.sensor.lidar);
-    Corridor out;
-    const Isometry3d T_0_world = traj.poses.front().inverse();
-    for (std::size_t i = 0; i < 20; ++i) {
-      sim::LidarSweep s = lidar.simulate(scene, traj.poses[i], traj.stamps[i], 300 + i);
-      s.cloud.timestamp = traj.stamps[i] - traj.stamps.front();
-      out.sweeps.push_back(std::move(s.cloud));
-      out.truth.push_back(T_0_world * traj.poses[i]);
-    }
-    return out;
-  }();
+)", "corridor", 20, 300);
   return c;
 }
 
@@ -95,7 +69,7 @@ FrontendParams corridorParams(double start_search_range) {
 
 /// Largest position error over the frames, and how many frames were reported tracked.
 std::pair<double, int> drive(const FrontendParams& p) {
-  const Corridor& c = corridor();
+  const test::SimLoop& c = corridor();
   Frontend fe(p);
   int tracked = 0;
   for (const PointCloud& s : c.sweeps)

@@ -74,7 +74,7 @@ void Recovery::recover(const RecoveryInput& in, const std::string& reason, Frame
                        StageTimes& times) {
   const TrackingParams& tp = params_;
   Attempt a{in, fr, times, reason, {}, {}, {}, {}, {}, {}};
-  const double max_rot = 4.0 * tp.max_correction_rotation + in.extrapolated_rotation;
+  const double max_rot = tp.recoveryMaxRotation() + in.extrapolated_rotation;
   a.recovered = {tp.recovery_min_quality, tp.recovery_relative_inlier_ratio * in.inlier_reference,
                  tp.recovery_max_correction, max_rot};
   a.confirmed = a.recovered;
@@ -89,12 +89,6 @@ bool Recovery::agree(const Isometry3d& T_a, const Isometry3d& T_b) const {
   const Isometry3d d = T_a.inverse() * T_b;
   return d.translation().norm() <= params_.recovery_agreement_translation &&
          rotationAngle(d.linear()) <= params_.recovery_agreement_rotation;
-}
-
-bool Recovery::fitsLikeTracking(const MatchResult& r, const RecoveryInput& in) const {
-  const double share = params_.recovery_large_turn_relative_inlier_ratio;
-  return share > 0.0 && in.inlier_reference > 0.0 &&
-         r.inlier_ratio >= share * in.inlier_reference;
 }
 
 /// Hypotheses: the guess, then the guess turned about the axis of the last motion (a car's
@@ -116,8 +110,11 @@ bool Recovery::wideGate(Attempt& a) {
     angles.push_back(k * tp.recovery_rotation_step);
     angles.push_back(-k * tp.recovery_rotation_step);
   }
-  AcceptanceBounds any_turn = a.recovered;
-  any_turn.max_rotation = M_PI;
+  // A registration beyond the rotation bound that fits as well as the tracked frames is taken
+  // (sweeps lost in a turn with regular stamps: the guess falls short of the turn).
+  AcceptanceBounds bounds = a.recovered;
+  bounds.large_turn_min_inlier_ratio =
+      tp.recovery_large_turn_relative_inlier_ratio * in.inlier_reference;
   MatchResult best;
   bool found = false;
   std::string why;
@@ -129,17 +126,10 @@ bool Recovery::wideGate(Attempt& a) {
       ScopedStage s(a.times, "icp");
       r = wide_gate_->match(in.source, in.local_map, T_start);
     }
-    std::string w = rejectReason(r, in.T_guess, a.recovered);
-    if (!w.empty() && fitsLikeTracking(r, in) && rejectReason(r, in.T_guess, any_turn).empty())
-      w.clear();  // beyond the rotation bound, but as good a fit as the tracked frames
-    OBM_LOG_DEBUG(kLog, "frame " << a.fr.index << ": wide-gate recovery from " << angle * kRadToDeg
-                                 << " deg: inlier ratio " << r.inlier_ratio << ", fitness "
-                                 << r.fitness << ", correction "
-                                 << (in.T_guess.inverse() * r.T_target_source).translation().norm()
-                                 << " m / "
-                                 << rotationAngle((in.T_guess.inverse() * r.T_target_source).linear()) *
-                                        kRadToDeg
-                                 << " deg" << (w.empty() ? "" : " (" + w + ")"));
+    const std::string w = rejectReason(r, in.T_guess, bounds);
+    OBM_LOG_DEBUG(kLog, "frame " << a.fr.index << ": wide-gate recovery from "
+                                 << angle * kRadToDeg << " deg: inlier ratio " << r.inlier_ratio
+                                 << ", fitness " << r.fitness << (w.empty() ? "" : " (" + w + ")"));
     if (w.empty() && (!found || r.inlier_ratio > best.inlier_ratio)) {
       best = r;
       found = true;

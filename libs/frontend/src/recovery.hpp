@@ -84,9 +84,6 @@ class Recovery {
   static std::vector<std::string> stepNames();
 
  private:
-  /// The registration pairs at least recovery_large_turn_relative_inlier_ratio × the recent
-  /// median inlier ratio (false when that share is 0).
-  bool fitsLikeTracking(const MatchResult& r, const RecoveryInput& in) const;
   struct Attempt;
   using StepFn = bool (Recovery::*)(Attempt&);
   struct Step {

@@ -1,12 +1,12 @@
 #include "tracker.hpp"
 
-#include "obm/core/log.hpp"
-
 #include <algorithm>
+#include <cmath>
 #include <string>
 #include <utility>
-#include <cmath>
 #include <vector>
+
+#include "obm/core/log.hpp"
 
 namespace obm::frontend {
 
@@ -28,7 +28,9 @@ std::string rejectReason(const MatchResult& r, const Isometry3d& T_guess,
   if (dt > bounds.max_correction)
     return "jump of " + std::to_string(dt) + " m from the constant-velocity guess (> " +
            std::to_string(bounds.max_correction) + " m)";
-  if (dr > bounds.max_rotation)
+  const bool large_turn = bounds.large_turn_min_inlier_ratio > 0.0 &&
+                          r.inlier_ratio >= bounds.large_turn_min_inlier_ratio;
+  if (dr > bounds.max_rotation && !large_turn)
     return "jump of " + std::to_string(dr * kRadToDeg) +
            " deg from the constant-velocity guess (> " +
            std::to_string(bounds.max_rotation * kRadToDeg) + " deg)";
@@ -56,7 +58,7 @@ std::string Tracker::track(const PointCloud& source, const PreparedTarget& local
   bounds.min_inlier_ratio = tp.relative_inlier_ratio * inl_ref;
   bounds.max_correction = have_velocity ? tp.max_correction : tp.recovery_max_correction;
   bounds.max_rotation =
-      have_velocity ? tp.max_correction_rotation : 4.0 * tp.max_correction_rotation;
+      have_velocity ? tp.max_correction_rotation : tp.recoveryMaxRotation();
   {
     ScopedStage s(times, "icp");
     if (have_velocity || !wide_gate_)

@@ -23,11 +23,15 @@ struct AcceptanceBounds {
   double min_inlier_ratio = 0.0;  ///< [0, 1] (a share of the recent median inlier ratio)
   double max_correction = 0.0;    ///< [m] translation of guess⁻¹ · estimate
   double max_rotation = 0.0;      ///< [rad] rotation of guess⁻¹ · estimate
+  /// A match whose inlier ratio reaches this [0, 1] may turn beyond max_rotation (0 = never): it
+  /// fits as well as the tracked frames, which a wrong minimum degrees away does not.
+  double large_turn_min_inlier_ratio = 0.0;
 };
 
 /// Why the match `r` of a frame whose constant-velocity guess is `T_guess` is not acceptable
 /// under `bounds` ("" when it is): status (ok / not_converged / degenerate pass), finite pose,
-/// quality, inlier ratio, then the correction of the guess (translation, rotation).
+/// quality, inlier ratio, then the correction of the guess (translation, rotation unless the
+/// match qualifies as a large turn).
 std::string rejectReason(const MatchResult& r, const Isometry3d& T_guess,
                          const AcceptanceBounds& bounds);
 

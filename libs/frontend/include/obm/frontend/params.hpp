@@ -155,6 +155,10 @@ struct TrackingParams {
   /// prior). Runs also when start_search_range is 0.
   bool start_search_matcher = false;
 
+  /// [rad] The largest rotation a recovery (or a frame without a velocity) may correct the
+  /// guess by: 4 × max_correction_rotation.
+  double recoveryMaxRotation() const { return 4.0 * max_correction_rotation; }
+
   static TrackingParams load(const ConfigNode& node);
   void validate() const;
 };
