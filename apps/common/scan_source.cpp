@@ -20,7 +20,7 @@ namespace obm::apps {
 ScanSourceConfig ScanSourceConfig::load(const ConfigNode& node) {
   ScanSourceConfig c;
   node.checkKeys({"source", "dir", "sequences", "val_sequences", "frame_gap", "frame_gaps",
-                  "voxel", "min_range", "max_range", "voxel_keypoints", "loop_fraction",
+                  "voxel", "min_range", "max_range", "voxel_keypoints", "surface_points", "loop_fraction",
                   "loop_max_distance", "loop_min_separation", "yaw_augment_deg", "pose_labels",
                   "label_yaw_hypotheses"});
   std::string source = "kitti";
@@ -37,12 +37,14 @@ ScanSourceConfig ScanSourceConfig::load(const ConfigNode& node) {
   node.get("max_range", c.max_range);
   node.get("frame_gaps", c.frame_gaps);
   node.get("voxel_keypoints", c.voxel_keypoints);
+  node.get("surface_points", c.surface_points);
   node.get("loop_fraction", c.loop_fraction);
   node.get("loop_max_distance", c.loop_max_distance);
   node.get("loop_min_separation", c.loop_min_separation);
   node.get("yaw_augment_deg", c.yaw_augment_deg);
   node.get("pose_labels", c.pose_labels);
   node.get("label_yaw_hypotheses", c.label_yaw_hypotheses);
+  if (c.surface_points < 0) throw ConfigError(node.where("surface_points") + ": must be >= 0");
   if (c.label_yaw_hypotheses < 0)
     throw ConfigError(node.where("label_yaw_hypotheses") + ": must be >= 0");
   if (c.pose_labels.find('/') != std::string::npos)
@@ -140,7 +142,7 @@ obmnet::RegistrationPair makePairIJ(const io::KittiSequence& s, std::size_t i, s
     T = T * Rz.inverse();
   }
   auto pair = obmnet::makeScanPair(source, loadScan(s, i, c), T, c.voxel, num_points, rng,
-                                   c.voxel_keypoints);
+                                   c.voxel_keypoints, c.surface_points);
   pair.name = s.name() + ":" + std::to_string(j) + "->" + std::to_string(i);
   if (labelled) {
     // A training sequence opened on its pose labels (openAll): T is the label, not ground truth.

@@ -31,6 +31,10 @@ struct ScanSourceConfig {
   double max_range = 0.0;                  ///< [m] returns farther than this are dropped (0 = keep)
   /// N points per scan as voxel keypoints (obmnet::voxelKeypoints) rather than a random subset.
   bool voxel_keypoints = false;
+  /// Surface samples of each target (voxel keypoints of the voxelised sweep) with PCA normals, for
+  /// the point-to-plane form of L_g (RegistrationPair::target_surface); 0 = none (L_g point to
+  /// point against the target's N points, as in the paper).
+  int surface_points = 0;
   /// Loop pairs: two sweeps at least `loop_min_separation` sweeps apart whose positions are within
   /// `loop_max_distance` [m] horizontally (a revisit, in any direction). Finding them needs the
   /// positions of the sweeps (poses.txt; any odometry or GNSS track would do): they choose which

@@ -36,10 +36,14 @@ std::vector<std::string> splitList(const std::string& s) {
   return out;
 }
 
+/// −1 = as the model file says, 0 = one-hot, 1 = relaxed overlap sampling (--sampling).
+int g_soft_sampling = -1;
+
 bench::Method obmnetMethod(const std::string& name, const std::string& model, int threads,
                            int num_points, int denoise) {
-  auto reg = std::make_shared<ObmNetRegistrar>(
-      ObmNetRegistrar::Options{model, num_points, threads, 0, denoise});
+  ObmNetRegistrar::Options o{model, num_points, threads, 0, denoise};
+  o.soft_sampling = g_soft_sampling;
+  auto reg = std::make_shared<ObmNetRegistrar>(o);
   return {name, [reg](const PointCloud& s, const PointCloud& t) {
             const RegistrationResult r = reg->align(s, t);
             bench::MethodResult out(r.T_target_source);
@@ -107,6 +111,7 @@ std::shared_ptr<ObmNetIcpMatcher> obmnetIcpMatcher(const std::string& model, int
                                                    double polish, double overlap_keep) {
   ObmNetMatcherParams p;
   p.denoise_neighbors = denoise;
+  p.soft_sampling = g_soft_sampling;
   p.model_path = model;
   p.num_points = num_points;
   p.threads = threads;
@@ -275,9 +280,16 @@ int main(int argc, char** argv) {
                  "neighbour-mean denoising of the network's inputs: each point averaged with its "
                  "K nearest neighbours (0 = off; for jittered clouds)")
       ->capture_default_str();
+  std::string sampling = "model";
+  app.add_option("--sampling", sampling,
+                 "the network's overlap sampling at inference: model (as the model file says), "
+                 "hard (one-hot draws) or soft (the relaxed draws of training)")
+      ->check(CLI::IsMember({"model", "hard", "soft"}))
+      ->capture_default_str();
   app.add_flag("-q,--quiet", quiet, "no progress bars");
   apps::addLogLevelOption(app, log_level, "warn");
   CLI11_PARSE(app, argc, argv);
+  g_soft_sampling = sampling == "soft" ? 1 : sampling == "hard" ? 0 : -1;
 
   return apps::runMain("obm-bench", apps::OtherExceptions::Error, [&] {
     setLogLevel(parseLogLevel(log_level));

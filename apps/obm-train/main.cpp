@@ -152,8 +152,10 @@ int main(int argc, char** argv) {
     if (overfit > 0) {
       const auto rows =
           trainer.overfitOneBatch(overfit, 5, overfit_epoch > 0 ? overfit_epoch : cfg.epochs);
-      std::printf("step  loss       rotation error [deg] (train mode; last row: eval mode)\n");
-      for (const auto& r : rows) std::printf("%4.0f  %-9.5f  %.6g\n", r[0], r[1], r[2]);
+      std::printf("step  loss       rotation error [deg]  translation error  mode\n");
+      for (const auto& r : rows)
+        std::printf("%4d  %-9.5f  %-20.6g  %-17.6g  %s\n", r.step, r.loss, r.rotation_error_deg,
+                    r.translation_error, r.mode.c_str());
       return 0;
     }
     if (measure > 0) {

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
+#include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/obmnet/losses.hpp"
 #include "obm/obmnet/model.hpp"
@@ -272,4 +273,34 @@ TEST(WeightedSvd, VanishedWeightsFallBackToUniform) {
   const auto y = torch::bmm(R, x);
   const auto T = weightedProcrustes(x, y, torch::zeros({1, 20}, torch::kFloat64));
   EXPECT_TRUE(torch::allclose(T.R, R, 1e-9, 1e-9));
+}
+
+TEST(ObmNet, SoftInferenceSamplingIsRepeatableRecordedAndNotTheOneHotDraw) {
+  torch::manual_seed(5);
+  ObmNet net(smallConfig());
+  const auto src = torch::randn({1, 3, 48});
+  const auto tgt = torch::randn({1, 3, 48});
+  // A few train-mode passes so that the batch-norm running statistics are not the defaults.
+  net->train();
+  for (int i = 0; i < 3; ++i) net->forward(src, tgt, false);
+  net->eval();
+  torch::NoGradGuard ng;
+  const auto hard = net->forward(src, tgt, false);
+  net->setSoftInferenceSampling(true);
+  const auto soft1 = net->forward(src, tgt, false);
+  const auto soft2 = net->forward(src, tgt, false);
+  // The same pair gives the same result (the eval noise stream is re-seeded), and the relaxed
+  // draws are not the one-hot ones: the sampled overlap, and with it α, differ.
+  EXPECT_TRUE(torch::equal(soft1.R, soft2.R));
+  EXPECT_TRUE(torch::equal(soft1.alpha, soft2.alpha));
+  EXPECT_FALSE(torch::equal(soft1.alpha, hard.alpha));
+  net->setSoftInferenceSampling(false);
+  EXPECT_TRUE(torch::equal(net->forward(src, tgt, false).alpha, hard.alpha));
+  // Recorded with the weights: the key round-trips through the model file's YAML.
+  ObmNetConfig c = smallConfig();
+  c.soft_inference_sampling = true;
+  const auto back = ObmNetConfig::load(ConfigNode::fromString(c.toYaml()));
+  EXPECT_TRUE(back.soft_inference_sampling);
+  EXPECT_EQ(smallConfig().toYaml().find("soft_inference_sampling"), std::string::npos)
+      << "models trained without the key keep their embedded text";
 }

@@ -12,7 +12,7 @@ ObmNetConfig ObmNetConfig::load(const ConfigNode& node) {
   node.checkKeys({"emb_dims", "dim", "k1", "k2", "n_keypoints", "n_samples", "n_iters", "nn_margin",
                   "loss_margin", "beta", "tau_min", "use_overlap_sampling", "use_bias_prediction",
                   "use_nmm", "nmm_score_grad", "planar", "voxel_keypoints", "neighbor_loss_nearest", "shared_centroid",
-                  "seed"});
+                  "soft_inference_sampling", "seed"});
   node.get("emb_dims", c.emb_dims);
   node.get("dim", c.dim);
   node.get("k1", c.k1);
@@ -32,6 +32,7 @@ ObmNetConfig ObmNetConfig::load(const ConfigNode& node) {
   node.get("voxel_keypoints", c.voxel_keypoints);
   node.get("neighbor_loss_nearest", c.neighbor_loss_nearest);
   node.get("shared_centroid", c.shared_centroid);
+  node.get("soft_inference_sampling", c.soft_inference_sampling);
   node.get("seed", c.seed);
   c.validate(node.where());
   return c;
@@ -83,6 +84,8 @@ std::string ObmNetConfig::toYaml() const {
   if (neighbor_loss_nearest)
     out << YAML::Key << "neighbor_loss_nearest" << YAML::Value << neighbor_loss_nearest;
   if (shared_centroid) out << YAML::Key << "shared_centroid" << YAML::Value << shared_centroid;
+  if (soft_inference_sampling)
+    out << YAML::Key << "soft_inference_sampling" << YAML::Value << soft_inference_sampling;
   out << YAML::Key << "seed" << YAML::Value << seed;
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";

@@ -1,5 +1,7 @@
 #include "obm/obmnet/data.hpp"
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -371,17 +373,51 @@ PointCloud neighbourMean(const PointCloud& cloud, int k) {
   return out;
 }
 
+std::vector<Vector3f> pcaNormals(const PointCloud& cloud, int k) {
+  OBM_ASSERT(k >= 3, "pcaNormals: k must be >= 3");
+  const std::size_t n = cloud.size();
+  const std::size_t kk = std::min<std::size_t>(static_cast<std::size_t>(k), n);
+  std::vector<Vector3f> normals(n, Vector3f::UnitZ());
+  if (kk < 3) return normals;
+  std::vector<std::pair<float, std::uint32_t>> d(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = 0; j < n; ++j)
+      d[j] = {(cloud.points[j] - cloud.points[i]).squaredNorm(), static_cast<std::uint32_t>(j)};
+    std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(kk - 1), d.end());
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (std::size_t a = 0; a < kk; ++a) mean += cloud.points[d[a].second].cast<double>();
+    mean /= static_cast<double>(kk);
+    Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
+    for (std::size_t a = 0; a < kk; ++a) {
+      const Eigen::Vector3d q = cloud.points[d[a].second].cast<double>() - mean;
+      C += q * q.transpose();
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(C);
+    normals[i] = es.eigenvectors().col(0).cast<float>().normalized();
+  }
+  return normals;
+}
+
 RegistrationPair makeScanPair(const PointCloud& source_scan, const PointCloud& target_scan,
                               const Isometry3d& T_target_source, double voxel, int num_points,
-                              std::mt19937_64& rng, bool voxel_keypoints) {
+                              std::mt19937_64& rng, bool voxel_keypoints, int surface_points) {
   RegistrationPair pair;
   const auto n = static_cast<std::size_t>(num_points);
+  const PointCloud target_voxels = voxelDownsample(target_scan, voxel);
   if (voxel_keypoints) {
     pair.source = voxelKeypoints(voxelDownsample(source_scan, voxel), n, rng);
-    pair.target = voxelKeypoints(voxelDownsample(target_scan, voxel), n, rng);
+    pair.target = voxelKeypoints(target_voxels, n, rng);
   } else {
     pair.source = randomSubset(voxelDownsample(source_scan, voxel), n, rng);
-    pair.target = randomSubset(voxelDownsample(target_scan, voxel), n, rng);
+    pair.target = randomSubset(target_voxels, n, rng);
+  }
+  if (surface_points > 0) {
+    // A copy of the generator: the pair's other draws stay those of a pair without surfaces.
+    std::mt19937_64 surface_rng = rng;
+    surface_rng.discard(7);
+    pair.target_surface =
+        voxelKeypoints(target_voxels, static_cast<std::size_t>(surface_points), surface_rng);
+    pair.target_normals = pcaNormals(pair.target_surface, 10);
   }
   pair.T_target_source = T_target_source;
   pair.overlap = -1.0;  // unknown for real scans

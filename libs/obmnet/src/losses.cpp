@@ -1,6 +1,7 @@
 #include "obm/obmnet/losses.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include "obm/core/errors.hpp"
 #include "obm/obmnet/modules.hpp"
@@ -19,6 +20,28 @@ torch::Tensor globalAlignmentLoss(const torch::Tensor& src_transformed, const to
   const auto src_to_tgt = huber(d2.amin(2), c).sum(1);  // B
   const auto tgt_to_src = huber(d2.amin(1), c).sum(1);  // B
   return (src_to_tgt + tgt_to_src).mean();
+}
+
+torch::Tensor pointToPlaneAlignmentLoss(const torch::Tensor& src_transformed,
+                                        const torch::Tensor& surface, const torch::Tensor& normals,
+                                        double c) {
+  OBM_ASSERT(src_transformed.dim() == 3 && surface.dim() == 3 &&
+                 surface.sizes() == normals.sizes() && surface.size(0) == src_transformed.size(0),
+             "pointToPlaneAlignmentLoss expects src B×3×N, surface and normals B×3×S");
+  torch::Tensor nearest;
+  {
+    torch::NoGradGuard ng;
+    nearest = pairwiseSquaredDistance(src_transformed, surface).argmin(2);  // B×N
+  }
+  const int64_t B = src_transformed.size(0), N = src_transformed.size(2);
+  const auto idx = nearest.unsqueeze(1).expand({B, 3, N});
+  const auto q = surface.gather(2, idx);
+  const auto n = normals.gather(2, idx);
+  const auto r = ((src_transformed - q) * n).sum(1).abs();  // B×N plane distances
+  // Huber of the distance itself with the threshold √c (c is the threshold of the squared
+  // distances of the point form), averaged like L_n: ϑ of the squared distance would be ~d⁴ below
+  // c, with a gradient orders of magnitude under L_n's and L_s's at metre-level errors.
+  return huber(r, std::sqrt(c)).mean();
 }
 
 torch::Tensor selectKeypoints(const torch::Tensor& weights, int64_t n) {

@@ -16,6 +16,7 @@ ObmNetImpl::ObmNetImpl(const ObmNetConfig& config) : config_(config) {
   if (config_.use_overlap_sampling) {
     sampler_ = register_module(
         "sampler", obmnet::OverlapSampler(config_.emb_dims, config_.n_samples, config_.tau_min));
+    sampler_->setSoftInference(config_.soft_inference_sampling);
     // Fusion of a point's feature with the overlap representations of both clouds (own, other):
     // Φ' = Φ + conv([Φ; T_self; T_other]). The residual form keeps Φ itself as the matching
     // feature at initialisation and lets training add the overlap context.
@@ -41,7 +42,8 @@ torch::Tensor fuse(torch::nn::Conv1d& fusion, const torch::Tensor& phi,
 }  // namespace
 
 ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& tgt,
-                                 bool compute_loss) {
+                                 bool compute_loss, const torch::Tensor& tgt_surface,
+                                 const torch::Tensor& tgt_normals) {
   OBM_ASSERT(src.dim() == 3 && src.size(1) == 3 && tgt.dim() == 3 && tgt.size(1) == 3 &&
                  src.size(0) == tgt.size(0),
              "ObmNet expects src B×3×N and tgt B×3×M");
@@ -133,7 +135,10 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
 
     if (compute_loss) {
       const auto src_new = obmnet::transformPoints(T_step, src_cur);
-      loss_g = loss_g + obmnet::globalAlignmentLoss(src_new, tgt, config_.loss_margin);
+      loss_g = loss_g + (tgt_surface.defined()
+                             ? obmnet::pointToPlaneAlignmentLoss(src_new, tgt_surface, tgt_normals,
+                                                                 config_.loss_margin)
+                             : obmnet::globalAlignmentLoss(src_new, tgt, config_.loss_margin));
       const auto kp = obmnet::selectKeypoints(w, config_.n_keypoints);
       loss_n = loss_n + obmnet::neighborhoodLoss(src_cur, tgt, pseudo, T_step, kp, config_.k1,
                                                  config_.neighbor_loss_nearest);
@@ -155,6 +160,11 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
     out.loss = loss_g + loss_n + loss_s;  // unweighted sum, as in RIENet
   }
   return out;
+}
+
+void ObmNetImpl::setSoftInferenceSampling(bool soft) {
+  config_.soft_inference_sampling = soft;
+  if (sampler_) sampler_->setSoftInference(soft);
 }
 
 void ObmNetImpl::seedTrainingNoise(std::uint64_t seed) {

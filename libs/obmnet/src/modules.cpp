@@ -138,11 +138,12 @@ OverlapSamples OverlapSamplerImpl::forward(const torch::Tensor& phi_self,
   u = u.clamp(eps, 1.0f - eps).to(phi_self.device(), phi_self.scalar_type());
   const auto gumbel = -torch::log(-torch::log(u));
   const auto scores = out.log_pi.unsqueeze(1) + gumbel;  // B×K×N
-  if (is_training()) {
+  if (is_training() || soft_inference_) {
     // Differentiable relaxation: softmax((log π + g)/τ).
     out.selection = torch::softmax(scores / out.tau.view({B, 1, 1}), 2);
   } else {
-    // Inference: the exact categorical draw one_hot(argmax(log π + g)) (τ does not change it).
+    // Inference, by default: the exact categorical draw one_hot(argmax(log π + g)) (τ does not
+    // change it).
     out.selection = torch::one_hot(scores.argmax(2), N).to(phi_self.scalar_type());
   }
   const auto S_t = out.selection.transpose(1, 2);          // B×N×K

@@ -25,6 +25,7 @@ ObmNetRegistrar::ObmNetRegistrar(const Options& options) : impl_(std::make_uniqu
   impl_->opt = options;
   impl_->model = obmnet::loadModel(options.model_path, &impl_->meta);
   if (impl_->opt.num_points <= 0) impl_->opt.num_points = impl_->meta.num_points;
+  if (options.soft_sampling >= 0) impl_->model->setSoftInferenceSampling(options.soft_sampling > 0);
   if (options.threads > 0) torch::set_num_threads(options.threads);
 }
 

@@ -104,6 +104,10 @@ struct Batch {
   std::vector<PairNormalization> norms;
   /// Pose labels in normalised coordinates (B×3×3, B×3); undefined unless every pair has one.
   torch::Tensor R_label, t_label;
+  /// The targets' surface samples (normalised) and normals, B×3×S; undefined unless every pair
+  /// has them (RegistrationPair::target_surface). Shorter surfaces are padded by repeating their
+  /// first sample, which changes no nearest neighbour.
+  torch::Tensor tgt_surface, tgt_normals;
 };
 
 torch::Tensor cloudTensor(const PointCloud& c) {
@@ -138,6 +142,28 @@ Batch makeBatch(std::vector<RegistrationPair> pairs, double radius, bool shared_
   }
   b.src = torch::stack(s);
   b.tgt = torch::stack(t);
+  bool surfaced = !pairs.empty();
+  std::size_t S = 0;
+  for (const auto& p : pairs) {
+    surfaced = surfaced && !p.target_surface.empty() &&
+               p.target_normals.size() == p.target_surface.size();
+    S = std::max(S, p.target_surface.size());
+  }
+  if (surfaced) {
+    std::vector<torch::Tensor> sf, nf;
+    for (std::size_t j = 0; j < pairs.size(); ++j) {
+      PointCloud surf = pairs[j].target_surface;
+      b.norms[j].applyTarget(surf);  // translation and scale: the normals are unchanged
+      PointCloud nrm;
+      nrm.points = pairs[j].target_normals;
+      surf.points.resize(S, surf.points.front());
+      nrm.points.resize(S, nrm.points.front());
+      sf.push_back(cloudTensor(surf));
+      nf.push_back(cloudTensor(nrm));
+    }
+    b.tgt_surface = torch::stack(sf);
+    b.tgt_normals = torch::stack(nf);
+  }
   if (labelled) {
     b.R_label = torch::stack(Rl);
     b.t_label = torch::stack(tl);
@@ -295,6 +321,10 @@ struct Trainer::Impl {
         b.R_label = b.R_label.to(device);
         b.t_label = b.t_label.to(device);
       }
+      if (b.tgt_surface.defined()) {
+        b.tgt_surface = b.tgt_surface.to(device);
+        b.tgt_normals = b.tgt_normals.to(device);
+      }
     }
     return b;
   }
@@ -324,7 +354,7 @@ struct Trainer::Impl {
     }
     model->train();
     optim->zero_grad();
-    const auto o = model->forward(b.src, b.tgt, /*compute_loss=*/true);
+    const auto o = model->forward(b.src, b.tgt, /*compute_loss=*/true, b.tgt_surface, b.tgt_normals);
     torch::Tensor total = o.loss, pose = torch::zeros({}, o.loss.options());
     if (cfg.pose_loss_weight > 0.0) {
       if (!b.R_label.defined())
@@ -394,7 +424,7 @@ struct Trainer::Impl {
           mine.begin() + static_cast<std::ptrdiff_t>(i0),
           mine.begin() + static_cast<std::ptrdiff_t>(std::min(mine.size(), i0 + B)));
       const Batch b = toDevice(makeBatch(std::move(chunk), cfg.normalize_radius, cfg.model.shared_centroid));
-      const auto o = model->forward(b.src, b.tgt, true);
+      const auto o = model->forward(b.src, b.tgt, true, b.tgt_surface, b.tgt_normals);
       s.loss += o.loss.item<double>() * static_cast<double>(b.pairs.size());
       for (std::size_t j = 0; j < b.pairs.size(); ++j) {
         const Isometry3d T = b.norms[j].denormalize(toIsometry(o.R, o.t, static_cast<int64_t>(j)));
@@ -515,32 +545,65 @@ void Trainer::initializeFrom(const std::string& model_path) {
   OBM_LOG_INFO("obm-train", "weights initialised from " << model_path);
 }
 
-std::vector<std::array<double, 3>> Trainer::overfitOneBatch(int steps, int every, int epoch) {
+std::vector<OverfitRow> Trainer::overfitOneBatch(int steps, int every, int epoch) {
   Impl& I = *impl_;
   std::mt19937_64 rng(I.cfg.seed + 4242u);
   const Batch b =
       I.toDevice(makeBatch(I.drawPairs(rng, I.cfg.batch_size, epoch), I.cfg.normalize_radius, I.cfg.model.shared_centroid));
-  auto meanError = [&](const ObmNetOutput& o) {
-    double e = 0.0;
+  // Mean rotation [deg] and translation [cloud units] error of the batch against ground truth.
+  auto row = [&](int step, double loss, const ObmNetOutput& o, const char* mode) {
+    OverfitRow r{step, loss, 0.0, 0.0, mode};
     for (std::size_t j = 0; j < b.pairs.size(); ++j) {
       const Isometry3d T = b.norms[j].denormalize(toIsometry(o.R, o.t, static_cast<int64_t>(j)));
-      e += rotationAngle(b.pairs[j].T_target_source.linear().transpose() * T.linear()) * kRadToDeg;
+      const Isometry3d& G = b.pairs[j].T_target_source;
+      r.rotation_error_deg += rotationAngle(G.linear().transpose() * T.linear()) * kRadToDeg;
+      r.translation_error += (G.translation() - T.translation()).norm();
     }
-    return e / static_cast<double>(b.pairs.size());
+    r.rotation_error_deg /= static_cast<double>(b.pairs.size());
+    r.translation_error /= static_cast<double>(b.pairs.size());
+    return r;
   };
-  std::vector<std::array<double, 3>> rows;
+  std::vector<OverfitRow> rows;
   for (int s = 0; s < steps; ++s) {
     I.model->train();
     I.optim->zero_grad();
-    const auto o = I.model->forward(b.src, b.tgt, true);
-    if (s % every == 0 || s + 1 == steps)
-      rows.push_back({double(s), o.loss.item<double>(), meanError(o)});
-    o.loss.backward();
+    const auto o = I.model->forward(b.src, b.tgt, true, b.tgt_surface, b.tgt_normals);
+    // The training objective, pose-label term included (as in step()).
+    torch::Tensor total = o.loss;
+    if (I.cfg.pose_loss_weight > 0.0 && b.R_label.defined())
+      total = total + I.cfg.pose_loss_weight * poseLabelLoss(o.R, o.t, b.R_label, b.t_label, b.src);
+    if (s % every == 0 || s + 1 == steps) rows.push_back(row(s, total.item<double>(), o, "train"));
+    total.backward();
     I.optim->step();
   }
   torch::NoGradGuard ng;
+  // The trained weights in the inference mode, then with one of its two differences from the
+  // training mode undone at a time: batch normalisation on the batch's own statistics instead of
+  // the running ones, and the soft (relaxed) overlap sampling instead of the one-hot draw. A gap
+  // between the train rows and "eval" that one of them closes is that difference's.
+  const auto batchNormTrain = [&](bool on) {
+    for (const auto& m : I.model->modules(/*include_self=*/false)) {
+      const bool bn = dynamic_cast<torch::nn::BatchNorm1dImpl*>(m.get()) != nullptr ||
+                      dynamic_cast<torch::nn::BatchNorm2dImpl*>(m.get()) != nullptr;
+      if (bn) m->train(on);
+    }
+  };
+  // Running statistics would be updated by a batch-statistics pass: keep them.
+  std::vector<torch::Tensor> saved;
+  for (const auto& kv : I.model->named_buffers(true)) saved.push_back(kv.value().clone());
   I.model->eval();
-  rows.push_back({double(steps), 0.0, meanError(I.model->forward(b.src, b.tgt, false))});
+  rows.push_back(row(steps, 0.0, I.model->forward(b.src, b.tgt, false), "eval"));
+  batchNormTrain(true);
+  rows.push_back(row(steps, 0.0, I.model->forward(b.src, b.tgt, false), "eval, batch-norm on batch statistics"));
+  batchNormTrain(false);
+  {
+    std::size_t i = 0;
+    for (auto& kv : I.model->named_buffers(true)) kv.value().copy_(saved[i++]);
+  }
+  for (const auto& m : I.model->modules(false))
+    if (dynamic_cast<obmnet::OverlapSamplerImpl*>(m.get()) != nullptr) m->train(true);
+  rows.push_back(row(steps, 0.0, I.model->forward(b.src, b.tgt, false), "eval, soft overlap sampling"));
+  I.model->eval();
   return rows;
 }
 

@@ -11,7 +11,7 @@ namespace obm {
 ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   ObmNetMatcherParams p;
   node.checkKeys(
-      {"model_path", "num_points", "threads", "seed", "denoise_neighbors", "pre_align",
+      {"model_path", "num_points", "threads", "seed", "denoise_neighbors", "soft_sampling", "pre_align",
        "keep_init_if_better", "overlap_stage_keep", "overlap_stage_gate_factor",
        "yaw_hypotheses"});
   p.model_path = node.required<std::string>("model_path");
@@ -19,6 +19,7 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   node.get("threads", p.threads);
   node.get("seed", p.seed);
   node.get("denoise_neighbors", p.denoise_neighbors);
+  node.get("soft_sampling", p.soft_sampling);
   node.get("pre_align", p.pre_align);
   node.get("keep_init_if_better", p.keep_init_if_better);
   node.get("overlap_stage_keep", p.overlap_stage_keep);
@@ -32,6 +33,8 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   if (p.model_path.empty()) throw ConfigError(node.where("model_path") + ": must not be empty");
   if (p.num_points < 0) throw ConfigError(node.where("num_points") + ": must be >= 0");
   if (p.threads < 1) throw ConfigError(node.where("threads") + ": must be >= 1");
+  if (p.soft_sampling < -1 || p.soft_sampling > 1)
+    throw ConfigError(node.where("soft_sampling") + ": must be -1 (the model's), 0 or 1");
   if (p.denoise_neighbors < 0)
     throw ConfigError(node.where("denoise_neighbors") + ": must be >= 0");
   // A relative model path is relative to the YAML file that names it.

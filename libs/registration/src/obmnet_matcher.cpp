@@ -33,6 +33,7 @@ ObmNetRegistrar makeRegistrar(const ObmNetMatcherParams& p) {
   o.threads = p.threads;
   o.seed = p.seed;
   o.denoise_neighbors = p.denoise_neighbors;
+  o.soft_sampling = p.soft_sampling;
   o.yaw_hypotheses = p.yaw_hypotheses;
   return ObmNetRegistrar(o);
 }

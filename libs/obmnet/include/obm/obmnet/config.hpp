@@ -62,6 +62,14 @@ struct ObmNetConfig {
   /// the two centroids, which moves with what enters and leaves the sensor's range (metres on a
   /// street). Recorded with the weights so that inference normalises as training did.
   bool shared_centroid = false;
+  /// The overlap sampler at inference: the relaxed draw softmax((log π + g)/τ) that training
+  /// uses (with the eval-mode noise stream), instead of the one-hot draw one_hot(argmax(log π + g)).
+  /// A network trained on the relaxed draws learns τ and the fusion on them; where τ grows, a
+  /// relaxed draw is a blend of many points and a one-hot one a single point, and the overlap
+  /// summaries, α and the matching features then differ between training and inference (measured
+  /// with `obm-train --overfit`: 0.3° in train mode, 19° with one-hot draws, 0.7° with relaxed
+  /// ones; docs/model.md, "Overlap sampling at inference"). Recorded with the weights.
+  bool soft_inference_sampling = false;
   /// Seed of the Gumbel noise. Training draws a fresh stream from it; every forward pass in eval
   /// mode re-seeds, so registering the same pair twice gives the same result.
   std::uint64_t seed = 0;

@@ -84,6 +84,14 @@ struct RegistrationPair {
   /// estimated on the training sequence (`data.pose_labels`). Unset for every other pair.
   bool has_pose_label = false;
   Isometry3d T_target_source_label = Isometry3d::Identity();
+  /// Denser samples of the target's surface with a unit normal each (sign arbitrary), in the
+  /// target's frame, for the point-to-plane form of the global-alignment loss: two independent
+  /// samplings share no point, so point-to-point distances keep a floor of about the sampling
+  /// spacing at the true pose, while a source point's distance to the *plane* of its nearest
+  /// target surface sample vanishes there. Empty unless the data source makes them
+  /// (`data.surface_points`); never used at inference.
+  PointCloud target_surface;
+  std::vector<Vector3f> target_normals;
 };
 
 /// Makes a pair from `cloud` (already normalised, e.g. to the unit sphere): draws
@@ -97,9 +105,17 @@ RegistrationPair makePair(const PointCloud& cloud, const PairProtocol& protocol,
 /// is only used to report errors, never for training.
 /// With `voxel_keypoints`, the N points are voxel keypoints (voxelKeypoints) of the voxelised
 /// scan instead of a random subset.
+/// `surface_points` > 0 also fills `target_surface` / `target_normals` with that many voxel
+/// keypoints of the voxelised target and their PCA normals (pcaNormals, 10 neighbours).
 RegistrationPair makeScanPair(const PointCloud& source_scan, const PointCloud& target_scan,
                               const Isometry3d& T_target_source, double voxel, int num_points,
-                              std::mt19937_64& rng, bool voxel_keypoints = false);
+                              std::mt19937_64& rng, bool voxel_keypoints = false,
+                              int surface_points = 0);
+
+/// Unit surface normal of every point: the eigenvector of the smallest eigenvalue of the
+/// covariance of its k nearest neighbours (itself included; brute force, for clouds of a few
+/// thousand points). Sign arbitrary; a point with fewer than 3 neighbours gets +z.
+std::vector<Vector3f> pcaNormals(const PointCloud& cloud, int k);
 
 /// Voxel keypoints: `n` points of `cloud` that cover it evenly, so that two scans of the same
 /// place give nearly the same points where random subsets of each would share none. The cloud is

@@ -17,6 +17,18 @@ torch::Tensor huber(const torch::Tensor& x, double c);
 torch::Tensor globalAlignmentLoss(const torch::Tensor& src_transformed, const torch::Tensor& tgt,
                                   double c);
 
+/// L_g in point-to-plane form, for independent samplings: for every transformed source point p,
+/// its nearest sample q of the target's surface (`surface` B×3×S, denser than the keypoints) with
+/// unit normal n (`normals` B×3×S), and ϑ, with threshold √c, of the distance |nᵀ(p − q)| to that
+/// plane, averaged over the points and the batch (one direction: the source's normals are not
+/// known). The mean of a distance, like L_n, so that its gradient is of the size of the other
+/// terms' (ϑ of the *squared* distance, as in the point form, is ~d⁴ at small errors). At the true pose the point-to-point distance keeps a floor of about the sampling
+/// spacing; the distance to the plane does not, so the minimum of this loss is the true pose.
+/// The nearest sample is chosen without gradient; the gradient flows through p.
+torch::Tensor pointToPlaneAlignmentLoss(const torch::Tensor& src_transformed,
+                                        const torch::Tensor& surface, const torch::Tensor& normals,
+                                        double c);
+
 /// Indices (B×K, int64) of the K = min(n, N) highest `weights` (B×N): the keypoints of L_n, L_s.
 torch::Tensor selectKeypoints(const torch::Tensor& weights, int64_t n);
 

@@ -39,10 +39,17 @@ class ObmNetImpl : public torch::nn::Module {
   /// `src` B×3×N, `tgt` B×3×M (float32, same device as the module; N and M may differ, both
   /// >= max(k1, k2)). Returns T_target_source and the diagnostics; the losses only when
   /// `compute_loss`. Throws ContractError on malformed shapes.
+  /// With `tgt_surface` / `tgt_normals` (B×3×S, optional, training only) L_g is computed in its
+  /// point-to-plane form against them (pointToPlaneAlignmentLoss) instead of against `tgt`.
   ObmNetOutput forward(const torch::Tensor& src, const torch::Tensor& tgt,
-                       bool compute_loss = false);
+                       bool compute_loss = false, const torch::Tensor& tgt_surface = {},
+                       const torch::Tensor& tgt_normals = {});
 
   const ObmNetConfig& config() const { return config_; }
+
+  /// Overrides ObmNetConfig::soft_inference_sampling of the loaded weights (an inference choice;
+  /// the weights do not change).
+  void setSoftInferenceSampling(bool soft);
 
   /// Restarts the train-mode Gumbel noise stream from `seed`. The trainer seeds it per step from
   /// (seed, epoch, step, rank), so a run resumed from a checkpoint draws the noise the

@@ -84,8 +84,12 @@ class OverlapSamplerImpl : public torch::nn::Module {
   /// Samples the cloud of `phi_self`; call twice with the roles swapped for both clouds.
   OverlapSamples forward(const torch::Tensor& phi_self, const torch::Tensor& phi_other,
                          const torch::Tensor& points, at::Generator& gen);
+  /// Eval mode draws the relaxed samples of training instead of one-hot ones
+  /// (ObmNetConfig::soft_inference_sampling).
+  void setSoftInference(bool soft) { soft_inference_ = soft; }
 
  private:
+  bool soft_inference_ = false;
   int64_t n_samples_;
   double tau_min_;
   torch::nn::Sequential logits_{nullptr};

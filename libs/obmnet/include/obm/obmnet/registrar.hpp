@@ -55,6 +55,10 @@ class ObmNetRegistrar {
     /// where one network pass covers about ±45°. 0 = the model's default (4 for a planar model,
     /// else 1); 1 = off.
     int yaw_hypotheses = 0;
+    /// Overlap sampling at inference: −1 = as the model file says
+    /// (ObmNetConfig::soft_inference_sampling), 0 = one-hot draws, 1 = the relaxed draws of
+    /// training.
+    int soft_sampling = -1;
   };
 
   /// Loads the model. A missing, corrupt or mismatched file throws IoError / FormatError naming it.

@@ -111,6 +111,15 @@ std::vector<RegistrationPair> objectValidationPairs(const std::vector<PointCloud
                                                     const PairProtocol& protocol, int n,
                                                     std::uint64_t seed);
 
+/// One row of Trainer::overfitOneBatch.
+struct OverfitRow {
+  int step = 0;
+  double loss = 0.0;                ///< training objective (train rows only)
+  double rotation_error_deg = 0.0;  ///< mean over the batch, against ground truth
+  double translation_error = 0.0;   ///< mean over the batch [cloud units: m for scans]
+  std::string mode;                 ///< "train", "eval", or eval with one train-mode part
+};
+
 class Trainer {
  public:
   /// Object-level training: pairs made from `train_clouds` / `val_clouds` by the config's
@@ -160,10 +169,14 @@ class Trainer {
   ValidationScores validate();
 
   /// A sanity check of the learning signal: `steps` optimisation steps on ONE fixed batch of the
-  /// training protocol at `epoch`'s curriculum level (a fresh model, nothing saved). Returns, every
-  /// `every` steps, {step, loss, mean rotation error in train mode [deg]}, then a last row
-  /// {steps, 0, eval-mode error}. A model that cannot fit one batch has a broken gradient path.
-  std::vector<std::array<double, 3>> overfitOneBatch(int steps, int every, int epoch);
+  /// training protocol at `epoch`'s curriculum level (a fresh model unless warm-started; nothing
+  /// saved). Returns a "train" row every `every` steps (the training objective, pose-label term
+  /// included when configured, and the batch's errors in train mode), then three rows of the
+  /// trained weights without gradient: "eval" (inference mode), and inference mode with batch
+  /// normalisation on the batch's statistics, and with the soft overlap sampling. A model that
+  /// cannot fit one batch has a broken gradient path, or a loss whose minimum is not the true pose;
+  /// one that fits it in train mode only loses it in what differs between the two modes.
+  std::vector<OverfitRow> overfitOneBatch(int steps, int every, int epoch);
 
   /// Pairs per second of training (forward + backward + step) measured on `n_batches` batches
   /// of the training protocol, without touching the checkpoint. For planning runs.

@@ -23,6 +23,9 @@ struct ObmNetMatcherParams {
   std::uint64_t seed = 0;  ///< seeds the network's point sampling
   /// Neighbour-mean denoising of the network's inputs (0 = off; ObmNetRegistrar::Options).
   int denoise_neighbors = 0;
+  /// Overlap sampling at inference: −1 = as the model file says, 0 = one-hot draws, 1 = the
+  /// relaxed draws of training (ObmNetRegistrar::Options::soft_sampling).
+  int soft_sampling = -1;
   /// Transform the source by the initial guess before the network and compose the network's
   /// (small) correction with it: T = ΔT · T_init. The natural choice for odometry, where the
   /// constant-velocity guess is good; false = the network sees the raw clouds and T_init is
