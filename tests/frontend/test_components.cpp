@@ -7,6 +7,7 @@
 #include <fstream>
 #include <random>
 
+#include "obm/backend/optimizer.hpp"
 #include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/frontend/descriptor.hpp"
@@ -247,6 +248,11 @@ optimizer: {init: file, max_iterations: 20}
       "jumps.yaml"));
   EXPECT_TRUE(jumps.tracking.recovery_confirm_jumps);
   EXPECT_DOUBLE_EQ(jumps.tracking.recovery_confirmed_relative_inlier_ratio, 0.5);
+  // Loop edges may take the DCS loss with Φ calibrated by the optimiser; a zero Φ is an error.
+  const FrontendParams dcs_auto =
+      FrontendParams::load(ConfigNode::fromString("loop_closure: {loss: \"dcs:auto\"}", "auto.yaml"));
+  EXPECT_EQ(backend::toString(dcs_auto.loop_closure.loss), "dcs:auto");
+  expectError("loop_closure: {loss: \"dcs:0\"}", "loss");
 }
 
 TEST(FrontendParams, MissingModelFallsBackOnlyWhenConfigured) {

@@ -268,7 +268,10 @@ void LoopClosureParams::validate() const {
   require(finite(floor_sigma_rotation) && floor_sigma_rotation >= 0.0, "floor_sigma_rotation_deg",
           "must be >= 0 [deg]");
   require(loss.kind != backend::LossKind::Default, "loss", "must name a loss (none, huber:δ, ...)");
-  require(finite(loss.scale) && loss.scale > 0.0, "loss", "scale must be > 0");
+  // dcs:auto (scale 0): Φ calibrated by the optimiser on the graph's own residuals.
+  const bool dcs_auto = loss.kind == backend::LossKind::Dcs && loss.scale == 0.0;
+  require(dcs_auto || (finite(loss.scale) && loss.scale > 0.0), "loss",
+          "scale must be > 0 (or dcs:auto)");
   descriptor.validate();
 }
 
