@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <random>
 
+#include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/cloud_ops.hpp"
 #include "obm/core/mesh.hpp"
@@ -353,4 +354,26 @@ TEST(Trainer, OverfitOneBatchLowersTheRotationError) {
                 r.rotation_error_deg, r.mode.c_str());
   EXPECT_GT(first, 3.0) << "the untrained network should be off";
   EXPECT_LT(last_train, 0.5 * first) << "start " << first << "°, after 30 steps " << last_train << "°";
+}
+
+TEST(TrainConfig, LossWeightsAreReadAndChecked) {
+  const auto load = [](const std::string& train) {
+    return TrainConfig::load(ConfigNode::fromString("model: {}\ntrain: " + train + "\n", "w.yaml"));
+  };
+  EXPECT_TRUE(load("{}").paperLossWeights());
+  const TrainConfig c = load("{loss_weights: [1, 0, 0.5]}");
+  EXPECT_FALSE(c.paperLossWeights());
+  EXPECT_DOUBLE_EQ(c.loss_weights[0], 1.0);
+  EXPECT_DOUBLE_EQ(c.loss_weights[1], 0.0);
+  EXPECT_DOUBLE_EQ(c.loss_weights[2], 0.5);
+  for (const std::string bad : {"{loss_weights: [1, 1]}", "{loss_weights: [1, -1, 1]}",
+                                "{loss_weights: [0, 0, 0]}"}) {
+    try {
+      load(bad);
+      ADD_FAILURE() << "no error for " << bad;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("loss_weights"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("w.yaml"), std::string::npos) << e.what();
+    }
+  }
 }

@@ -33,7 +33,7 @@ TrainConfig TrainConfig::load(const ConfigNode& root) {
                "val_pairs", "lr", "weight_decay", "lr_steps", "lr_gamma", "normalize_radius",
                "recall_deg", "recall_trans", "max_grad_norm", "threads", "seed", "max_hours",
                "curriculum_epochs", "curriculum_start", "device", "pose_loss_weight",
-               "select_on"});
+               "loss_weights", "select_on"});
   c.protocol = PairProtocol::load(t.child("pairs"));
   c.val_protocol =
       t.has("val_pairs_protocol") ? PairProtocol::load(t.child("val_pairs_protocol")) : c.protocol;
@@ -56,6 +56,14 @@ TrainConfig TrainConfig::load(const ConfigNode& root) {
   t.get("curriculum_start", c.curriculum_start);
   t.get("device", c.device);
   t.get("pose_loss_weight", c.pose_loss_weight);
+  if (t.has("loss_weights")) {
+    std::vector<double> w;
+    t.get("loss_weights", w);
+    if (w.size() != 3 || !(w[0] >= 0.0 && w[1] >= 0.0 && w[2] >= 0.0) || w[0] + w[1] + w[2] <= 0.0)
+      throw ConfigError(t.where("loss_weights") +
+                        ": three weights [g, n, s] >= 0, not all 0 (the paper's: [1, 1, 1])");
+    c.loss_weights = {w[0], w[1], w[2]};
+  }
   if (!(c.pose_loss_weight >= 0.0))
     throw ConfigError(t.where("pose_loss_weight") + ": must be >= 0");
   if (t.has("select_on")) {
@@ -341,6 +349,13 @@ struct Trainer::Impl {
     return (static_cast<std::uint64_t>(v[0]) << 32) | v[1];
   }
 
+  /// L_g + L_n + L_s as train.loss_weights weighs them (o.loss for the paper's weights).
+  torch::Tensor objective(const ObmNetOutput& o) const {
+    if (cfg.paperLossWeights()) return o.loss;
+    const auto& w = cfg.loss_weights;
+    return w[0] * o.loss_global + w[1] * o.loss_neighbor + w[2] * o.loss_spatial;
+  }
+
   std::array<double, 5> step(const Batch& b, int global_pairs) {
     const int local = static_cast<int>(b.pairs.size());
     // Data-parallel: rank 0's batch-normalisation statistics for every copy (DDP's
@@ -355,7 +370,7 @@ struct Trainer::Impl {
     model->train();
     optim->zero_grad();
     const auto o = model->forward(b.src, b.tgt, /*compute_loss=*/true, b.tgt_surface, b.tgt_normals);
-    torch::Tensor total = o.loss, pose = torch::zeros({}, o.loss.options());
+    torch::Tensor total = objective(o), pose = torch::zeros({}, o.loss.options());
     if (cfg.pose_loss_weight > 0.0) {
       if (!b.R_label.defined())
         throw ConfigError("train.pose_loss_weight > 0, but the training pairs carry no pose label "
@@ -569,7 +584,7 @@ std::vector<OverfitRow> Trainer::overfitOneBatch(int steps, int every, int epoch
     I.optim->zero_grad();
     const auto o = I.model->forward(b.src, b.tgt, true, b.tgt_surface, b.tgt_normals);
     // The training objective, pose-label term included (as in step()).
-    torch::Tensor total = o.loss;
+    torch::Tensor total = I.objective(o);
     if (I.cfg.pose_loss_weight > 0.0 && b.R_label.defined())
       total = total + I.cfg.pose_loss_weight * poseLabelLoss(o.R, o.t, b.R_label, b.t_label, b.src);
     if (s % every == 0 || s + 1 == steps) rows.push_back(row(s, total.item<double>(), o, "train"));

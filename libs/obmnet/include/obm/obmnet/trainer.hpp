@@ -57,6 +57,15 @@ struct TrainConfig {
   /// trajectory of the training sequence, never ground truth). 0 = the paper's unsupervised
   /// L_g + L_n + L_s only. > 0 needs every training pair to carry a label.
   double pose_loss_weight = 0.0;
+  /// Weights of L_g, L_n, L_s in the training objective (YAML `loss_weights: [g, n, s]`); the
+  /// paper's sum is {1, 1, 1}. A diagnostic of which term leads where (obm-train --overfit); the
+  /// validation loss stays the unweighted sum.
+  std::array<double, 3> loss_weights{1.0, 1.0, 1.0};
+  /// The training objective of a forward pass: the weighted L_g + L_n + L_s (o.loss itself
+  /// when the weights are the paper's, so that runs without the key are bit-identical).
+  bool paperLossWeights() const {
+    return loss_weights[0] == 1.0 && loss_weights[1] == 1.0 && loss_weights[2] == 1.0;
+  }
   /// The validation score that chooses best.pt (lower is better).
   enum class Selection { MieR, MieT };
   Selection select_on = Selection::MieR;
