@@ -36,13 +36,11 @@ std::vector<std::string> splitList(const std::string& s) {
   return out;
 }
 
-/// −1 = as the model file says, 0 = one-hot, 1 = relaxed overlap sampling (--sampling).
-int g_soft_sampling = -1;
-
+/// `soft_sampling`: −1 = as the model file says, 0 = one-hot, 1 = relaxed overlap draws (--sampling).
 bench::Method obmnetMethod(const std::string& name, const std::string& model, int threads,
-                           int num_points, int denoise) {
+                           int num_points, int denoise, int soft_sampling) {
   ObmNetRegistrar::Options o{model, num_points, threads, 0, denoise};
-  o.soft_sampling = g_soft_sampling;
+  o.soft_sampling = soft_sampling;
   auto reg = std::make_shared<ObmNetRegistrar>(o);
   return {name, [reg](const PointCloud& s, const PointCloud& t) {
             const RegistrationResult r = reg->align(s, t);
@@ -107,11 +105,11 @@ IcpParams objectRefineIcpParams(double unit, double polish) {
 }
 
 std::shared_ptr<ObmNetIcpMatcher> obmnetIcpMatcher(const std::string& model, int threads,
-                                                   int num_points, int denoise, double unit,
-                                                   double polish, double overlap_keep) {
+                                                   int num_points, int denoise, int soft_sampling,
+                                                   double unit, double polish, double overlap_keep) {
   ObmNetMatcherParams p;
   p.denoise_neighbors = denoise;
-  p.soft_sampling = g_soft_sampling;
+  p.soft_sampling = soft_sampling;
   p.model_path = model;
   p.num_points = num_points;
   p.threads = threads;
@@ -289,7 +287,7 @@ int main(int argc, char** argv) {
   app.add_flag("-q,--quiet", quiet, "no progress bars");
   apps::addLogLevelOption(app, log_level, "warn");
   CLI11_PARSE(app, argc, argv);
-  g_soft_sampling = sampling == "soft" ? 1 : sampling == "hard" ? 0 : -1;
+  const int soft_sampling = sampling == "soft" ? 1 : sampling == "hard" ? 0 : -1;
 
   return apps::runMain("obm-bench", apps::OtherExceptions::Error, [&] {
     setLogLevel(parseLogLevel(log_level));
@@ -435,12 +433,12 @@ int main(int argc, char** argv) {
     std::vector<bench::Method> methods;
     if (!ablation.empty()) {
       for (const auto& m : splitList(ablation))
-        methods.push_back(obmnetMethod(m, m, threads, num_points, denoise));
+        methods.push_back(obmnetMethod(m, m, threads, num_points, denoise, soft_sampling));
     } else {
-      methods.push_back(obmnetMethod("obmnet", model, threads, num_points, denoise));
+      methods.push_back(obmnetMethod("obmnet", model, threads, num_points, denoise, soft_sampling));
       // One matcher of each kind (one model load), shared by the rows that use it.
       const auto net_icp =
-          obmnetIcpMatcher(model, threads, num_points, denoise, unit, polish, overlap_keep);
+          obmnetIcpMatcher(model, threads, num_points, denoise, soft_sampling, unit, polish, overlap_keep);
       const auto icp = objectIcpMatcher(unit, polish);
       methods.push_back(matcherMethod("obmnet+icp", net_icp));
       methods.push_back(matcherMethod("icp", icp));

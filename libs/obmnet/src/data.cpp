@@ -353,48 +353,59 @@ PointCloud voxelKeypoints(const PointCloud& cloud, std::size_t n, std::mt19937_6
   return out;
 }
 
-PointCloud neighbourMean(const PointCloud& cloud, int k) {
-  OBM_ASSERT(k >= 0, "neighbourMean: k must be >= 0");
+namespace {
+
+/// Calls fn(i, nbrs) for every point i with its `m` nearest points (itself included, unordered),
+/// by brute force: for the network's clouds of a few thousand points.
+template <typename Fn>
+void forEachNeighbourhood(const PointCloud& cloud, std::size_t m, Fn&& fn) {
   const std::size_t n = cloud.size();
-  if (k == 0 || n < 2) return cloud;
-  const auto kk = std::min<std::size_t>(static_cast<std::size_t>(k), n - 1);
-  PointCloud out = cloud;
   std::vector<std::pair<float, std::uint32_t>> d(n);
+  std::vector<std::uint32_t> nbrs(m);
   for (std::size_t i = 0; i < n; ++i) {
     const Eigen::Vector3f& p = cloud.points[i];
     for (std::size_t j = 0; j < n; ++j)
       d[j] = {(cloud.points[j] - p).squaredNorm(), static_cast<std::uint32_t>(j)};
-    // kk + 1: the point itself is its own nearest neighbour (distance 0).
-    std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(kk), d.end());
-    Eigen::Vector3f sum = Eigen::Vector3f::Zero();
-    for (std::size_t j = 0; j <= kk; ++j) sum += cloud.points[d[j].second];
-    out.points[i] = sum / static_cast<float>(kk + 1);
+    std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(m - 1), d.end());
+    for (std::size_t j = 0; j < m; ++j) nbrs[j] = d[j].second;
+    fn(i, nbrs);
   }
+}
+
+}  // namespace
+
+PointCloud neighbourMean(const PointCloud& cloud, int k) {
+  OBM_ASSERT(k >= 0, "neighbourMean: k must be >= 0");
+  const std::size_t n = cloud.size();
+  if (k == 0 || n < 2) return cloud;
+  // kk + 1: the point itself is its own nearest neighbour (distance 0).
+  const auto kk = std::min<std::size_t>(static_cast<std::size_t>(k), n - 1);
+  PointCloud out = cloud;
+  forEachNeighbourhood(cloud, kk + 1, [&](std::size_t i, const std::vector<std::uint32_t>& nb) {
+    Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+    for (const auto j : nb) sum += cloud.points[j];
+    out.points[i] = sum / static_cast<float>(kk + 1);
+  });
   return out;
 }
 
 std::vector<Vector3f> pcaNormals(const PointCloud& cloud, int k) {
   OBM_ASSERT(k >= 3, "pcaNormals: k must be >= 3");
-  const std::size_t n = cloud.size();
-  const std::size_t kk = std::min<std::size_t>(static_cast<std::size_t>(k), n);
-  std::vector<Vector3f> normals(n, Vector3f::UnitZ());
+  const std::size_t kk = std::min<std::size_t>(static_cast<std::size_t>(k), cloud.size());
+  std::vector<Vector3f> normals(cloud.size(), Vector3f::UnitZ());
   if (kk < 3) return normals;
-  std::vector<std::pair<float, std::uint32_t>> d(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    for (std::size_t j = 0; j < n; ++j)
-      d[j] = {(cloud.points[j] - cloud.points[i]).squaredNorm(), static_cast<std::uint32_t>(j)};
-    std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(kk - 1), d.end());
+  forEachNeighbourhood(cloud, kk, [&](std::size_t i, const std::vector<std::uint32_t>& nb) {
     Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    for (std::size_t a = 0; a < kk; ++a) mean += cloud.points[d[a].second].cast<double>();
+    for (const auto j : nb) mean += cloud.points[j].cast<double>();
     mean /= static_cast<double>(kk);
     Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
-    for (std::size_t a = 0; a < kk; ++a) {
-      const Eigen::Vector3d q = cloud.points[d[a].second].cast<double>() - mean;
+    for (const auto j : nb) {
+      const Eigen::Vector3d q = cloud.points[j].cast<double>() - mean;
       C += q * q.transpose();
     }
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(C);
     normals[i] = es.eigenvectors().col(0).cast<float>().normalized();
-  }
+  });
   return normals;
 }
 

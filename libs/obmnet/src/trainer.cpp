@@ -615,10 +615,10 @@ std::vector<OverfitRow> Trainer::overfitOneBatch(int steps, int every, int epoch
     std::size_t i = 0;
     for (auto& kv : I.model->named_buffers(true)) kv.value().copy_(saved[i++]);
   }
-  for (const auto& m : I.model->modules(false))
-    if (dynamic_cast<obmnet::OverlapSamplerImpl*>(m.get()) != nullptr) m->train(true);
+  const bool soft = I.model->config().soft_inference_sampling;
+  I.model->setSoftInferenceSampling(true);
   rows.push_back(row(steps, 0.0, I.model->forward(b.src, b.tgt, false), "eval, soft overlap sampling"));
-  I.model->eval();
+  I.model->setSoftInferenceSampling(soft);
   return rows;
 }
 
