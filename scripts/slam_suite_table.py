@@ -6,7 +6,9 @@
 Reads OUT_DIR/runs/SEQ.PIPELINE/ (metrics.json, timing.json, frames.csv, trajectory_kitti.txt and
 the ground truth named in metrics.json) and prints one row per run. A "silent" frame is one
 obm-map reports as tracked whose motion since the previous frame is off by more than 0.2 m or 1
-degree from the ground truth's: a slide nobody was told about.
+degree from the ground truth's: a slide nobody was told about. "wrong loops" are accepted loop
+closures whose relative pose is off the ground truth's by more than 0.5 m or 2 degrees (obm-map's
+metrics.json, `loops_wrong`).
 """
 import json
 import math
@@ -89,8 +91,8 @@ def main():
     order = ["corridor", "open_road", "urban", "turn_gaps", "turn_jumps", "revisits"]
     names.sort(key=lambda n: (order.index(n.split(".")[0]) if n.split(".")[0] in order else 99, n))
     print("| sequence | pipeline | frames | length | t_err [%] | r_err [°/100 m] | ATE RMSE | recovered "
-          "| bridged | restarts | loops | silent frames | frames/s |")
-    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+          "| bridged | restarts | loops | wrong loops | silent frames | frames/s |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for name in names:
         run = os.path.join(runs_dir, name)
         try:
@@ -101,11 +103,12 @@ def main():
         seq, _, pipeline = name.partition(".")
         fmt = lambda x, f: "—" if x is None else f.format(x)
         silent = silent_frames(run, m)
-        print("| %s | %s | %d | %.0f m | %s | %s | %.3f m | %d | %d | %d | %d | %s | %.1f |" % (
+        print("| %s | %s | %d | %.0f m | %s | %s | %.3f m | %d | %d | %d | %d | %s | %s | %.1f |" % (
             seq, m["matcher"], m["frames"], m["ground_truth_length_m"],
             fmt(m.get("t_err_percent"), "{:.3f}"), fmt(m.get("r_err_deg_per_100m"), "{:.3f}"),
             m["ate_rmse_m"], m["frames_recovered"], m["frames_bridged"], m["map_restarts"],
-            m["loops_accepted"], fmt(silent, "{:d}"), t["frames_per_second"]))
+            m["loops_accepted"], fmt(m.get("loops_wrong"), "{:d}"), fmt(silent, "{:d}"),
+            t["frames_per_second"]))
 
 
 if __name__ == "__main__":

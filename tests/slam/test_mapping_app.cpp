@@ -6,6 +6,7 @@
 #include <octomap/OcTree.h>
 
 #include <atomic>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -153,6 +154,8 @@ TEST(MappingApp, KittiFolderEndToEndWritesEveryOutput) {
   ASSERT_TRUE(m.contains("loops_accepted"));
   EXPECT_TRUE(m.at("loops_accepted").is_number_integer());
   EXPECT_EQ(m.at("evaluation_frame"), "camera0");
+  EXPECT_EQ(m.at("loops_checked"), m.at("loops_accepted"));
+  EXPECT_EQ(m.at("loops_wrong"), 0);
 
   // timing.json.
   const nlohmann::json t = readJson(out + "/timing.json");
@@ -193,6 +196,50 @@ TEST(MappingApp, KittiFolderEndToEndWritesEveryOutput) {
   // The pictures are PNGs.
   EXPECT_GT(io::readColorPng(out + "/trajectory_topview.png").width, 100);
   EXPECT_GT(io::readColorPng(out + "/map_topview.png").width, 100);
+}
+
+// A loop edge is scored against the ground truth's relative pose of its keyframes' frames: exact
+// and centimetre-off edges are correct, one 1 m or 3° off is wrong, frames without ground truth
+// and rejected candidates are not scored.
+TEST(MappingAppLoops, ScoredAgainstTheGroundTruthsRelativePose) {
+  auto pose = [](double x, double y, double yaw_deg) {
+    Isometry3d T = Isometry3d::Identity();
+    T.linear() = Eigen::AngleAxisd(yaw_deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()).matrix();
+    T.translation() = Eigen::Vector3d(x, y, 0.0);
+    return T;
+  };
+  std::vector<std::optional<Isometry3d>> gt = {pose(0, 0, 0), pose(10, 0, 5), pose(20, 3, 170),
+                                                std::nullopt, pose(1, 2, 180)};
+  const std::vector<std::size_t> keyframe_frames = {0, 1, 2, 3, 4};  // keyframe k at frame k
+  auto loop = [&](std::size_t from, std::size_t to, const Isometry3d& error, bool accepted) {
+    frontend::LoopClosure lc;
+    lc.from = from;
+    lc.to = to;
+    lc.accepted = accepted;
+    lc.T_from_to = gt[from]->inverse() * *gt[to] * error;
+    return lc;
+  };
+  TrajectoryMetrics m;
+  scoreLoops({loop(0, 4, Isometry3d::Identity(), true), loop(1, 4, pose(0.02, 0, 0.1), true)},
+             keyframe_frames, gt, m);
+  EXPECT_EQ(m.loops_checked, 2u);
+  EXPECT_EQ(m.loops_wrong, 0u);
+  EXPECT_NEAR(m.loop_error_max_m, 0.02, 1e-9);
+  EXPECT_NEAR(m.loop_error_max_deg, 0.1, 1e-9);
+
+  frontend::LoopClosure no_truth = loop(0, 4, Isometry3d::Identity(), true);
+  no_truth.to = 3;  // frame 3 has no ground-truth pose
+  scoreLoops({loop(0, 4, pose(1.0, 0, 0), true), loop(2, 4, pose(0, 0, 3.0), true),
+              loop(1, 2, pose(5.0, 0, 0), false), no_truth},
+             keyframe_frames, gt, m);
+  EXPECT_EQ(m.loops_checked, 2u);
+  EXPECT_EQ(m.loops_wrong, 2u);
+  EXPECT_NEAR(m.loop_error_max_m, 1.0, 1e-9);
+  EXPECT_NEAR(m.loop_error_max_deg, 3.0, 1e-9);
+
+  scoreLoops({}, keyframe_frames, gt, m);
+  EXPECT_EQ(m.loops_checked, 0u);
+  EXPECT_TRUE(std::isnan(m.loop_error_max_m));
 }
 
 TEST(MappingApp, RawlogOfTheSameDriveWithItsGroundTruth) {

@@ -118,6 +118,30 @@ std::string fmt(double v, int precision = 3) {
 
 }  // namespace
 
+void scoreLoops(const std::vector<frontend::LoopClosure>& loops,
+                const std::vector<std::size_t>& keyframe_frames,
+                const std::vector<std::optional<Isometry3d>>& T_world_body, TrajectoryMetrics& m) {
+  m.loops_checked = m.loops_wrong = 0;
+  m.loop_error_max_m = m.loop_error_max_deg = kNaN;
+  for (const auto& lc : loops) {
+    if (!lc.accepted || lc.from >= keyframe_frames.size() || lc.to >= keyframe_frames.size())
+      continue;
+    const std::size_t a = keyframe_frames[lc.from], b = keyframe_frames[lc.to];
+    if (a >= T_world_body.size() || b >= T_world_body.size() || !T_world_body[a] ||
+        !T_world_body[b])
+      continue;
+    const Isometry3d T_from_to_gt = T_world_body[a]->inverse() * *T_world_body[b];
+    const Isometry3d E = T_from_to_gt.inverse() * lc.T_from_to;
+    const double e_t = E.translation().norm();
+    const double e_r = Eigen::AngleAxisd(E.linear()).angle() * 180.0 / M_PI;
+    if (m.loops_checked == 0) m.loop_error_max_m = m.loop_error_max_deg = 0.0;
+    ++m.loops_checked;
+    m.loop_error_max_m = std::max(m.loop_error_max_m, e_t);
+    m.loop_error_max_deg = std::max(m.loop_error_max_deg, e_r);
+    if (e_t > kWrongLoopTranslation || e_r > kWrongLoopRotationDeg) ++m.loops_wrong;
+  }
+}
+
 MappingApp::MappingApp(SlamConfig config, MappingAppOptions options)
     : config_(std::move(config)), options_(std::move(options)) {
   if (options_.input.empty()) throw ConfigError("obm-map: the input is empty");
@@ -280,6 +304,9 @@ RunSummary MappingApp::run() {
   std::vector<double> ate_errors, ate_distance;  // per evaluated frame, for the report
   if (!gt.path.empty()) {
     sum.metrics = computeMetrics(traj, gt, calib);
+    std::vector<std::size_t> keyframe_frames;
+    for (const auto& kf : fe.keyframes()) keyframe_frames.push_back(kf.frame_index);
+    scoreLoops(fe.loops(), keyframe_frames, gt.T_world_body, *sum.metrics);
     eval::PoseList est, ref;
     for (std::size_t i = 0; i < traj.size() && i < gt.T_world_body.size(); ++i)
       if (gt.T_world_body[i]) {
@@ -319,6 +346,10 @@ RunSummary MappingApp::run() {
     j["ground_truth"] = gt.path.empty() ? nlohmann::json() : nlohmann::json(gt.path);
     j["loops_accepted"] = st.loops_accepted;
     j["loops_rejected"] = st.loops_rejected;
+    j["loops_checked"] = m.loops_checked;
+    j["loops_wrong"] = m.loops_wrong;
+    j["loop_error_max_m"] = have ? num(m.loop_error_max_m) : nlohmann::json();
+    j["loop_error_max_deg"] = have ? num(m.loop_error_max_deg) : nlohmann::json();
     j["loop_candidates"] = st.loop_candidates;
     j["frames"] = n;
     j["keyframes"] = st.keyframes;
@@ -455,6 +486,11 @@ std::string formatSummary(const RunSummary& s) {
        << " m, max " << fmt(m.ate_max_m, 4) << " m\n";
     os << "RPE (1 frame)   " << fmt(m.rpe_trans_rmse_m, 4) << " m, " << fmt(m.rpe_rot_rmse_deg, 4)
        << " deg\n";
+    if (m.loops_checked > 0)
+      os << "loops vs truth  " << m.loops_wrong << " of " << m.loops_checked
+         << " accepted loops wrong (> " << kWrongLoopTranslation << " m or "
+         << kWrongLoopRotationDeg << " deg); largest errors " << fmt(m.loop_error_max_m) << " m, "
+         << fmt(m.loop_error_max_deg) << " deg\n";
   } else {
     os << "ground truth    none (no metrics)\n";
   }

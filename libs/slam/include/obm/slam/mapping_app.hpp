@@ -57,7 +57,28 @@ struct TrajectoryMetrics {
   double rpe_rot_rmse_deg = 0.0;  ///< frame-to-frame relative pose error, rotation [deg]
   double length_m = 0.0;          ///< ground-truth path length [m]
   std::string frame;              ///< frame the poses were compared in ("camera0", "sensor")
+  /// Accepted loop closures with ground truth at both ends, and those among them whose measured
+  /// relative pose is off the ground truth's by more than kWrongLoopTranslation or
+  /// kWrongLoopRotationDeg: loops the front-end should not have accepted. The largest errors of
+  /// the accepted loops (NaN when none was checked).
+  std::size_t loops_checked = 0;
+  std::size_t loops_wrong = 0;
+  double loop_error_max_m = 0.0;
+  double loop_error_max_deg = 0.0;
 };
+
+/// A loop edge further than this from the ground truth's relative pose is counted wrong: the
+/// scale of an ICP local minimum one facade element away, far above a correct registration's
+/// centimetres.
+inline constexpr double kWrongLoopTranslation = 0.5;  ///< [m]
+inline constexpr double kWrongLoopRotationDeg = 2.0;  ///< [deg]
+
+/// Scores the accepted loop closures against the ground truth: each measured T_from_to against
+/// T_world_from⁻¹·T_world_to of the ground-truth poses of the two keyframes' frames (indexed by
+/// frame, sensor frame at both ends). Sets m.loops_checked, loops_wrong and loop_error_max_*.
+void scoreLoops(const std::vector<frontend::LoopClosure>& loops,
+                const std::vector<std::size_t>& keyframe_frames,
+                const std::vector<std::optional<Isometry3d>>& T_world_body, TrajectoryMetrics& m);
 
 /// What a run did.
 struct RunSummary {
