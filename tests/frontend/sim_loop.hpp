@@ -45,10 +45,10 @@ inline SimLoop simulateDrive(const char* yaml, const std::string& origin, std::s
   return out;
 }
 
-/// One loop around a 60 m × 55 m block at 10 m/s, sweeps at 4 Hz (2.5 m apart), a 64-ring LiDAR
-/// with 0.8° columns and 2 cm range noise: ~126 sweeps of ~20k points.
-inline const SimLoop& simLoop() {
-  static const SimLoop loop = simulateDrive(R"(
+/// The drive of simLoop() along `route` (block corners in units of the block, as obm-sim's
+/// `trajectory.route`).
+inline SimLoop simulateBlockDrive(const std::string& route) {
+  const std::string yaml = R"(
 name: frontend_test_loop
 seed: 7
 frames: 0
@@ -71,13 +71,19 @@ sensor:
   range_noise_sigma: 0.02
 trajectory:
   type: drive
-  route: [[0, 0], [1, 0], [1, 1], [0, 1], [0, 0]]
+  route: )" + route + R"(
   speed: 10.0
   turn_speed: 6.0
 output:
   format: kitti
-)",
-                                            "frontend_test_loop", 0, 100);
+)";
+  return simulateDrive(yaml.c_str(), "frontend_test_loop", 0, 100);
+}
+
+/// One loop around a 60 m × 55 m block at 10 m/s, sweeps at 4 Hz (2.5 m apart), a 64-ring LiDAR
+/// with 0.8° columns and 2 cm range noise: ~126 sweeps of ~20k points.
+inline const SimLoop& simLoop() {
+  static const SimLoop loop = simulateBlockDrive("[[0, 0], [1, 0], [1, 1], [0, 1], [0, 0]]");
   return loop;
 }
 

@@ -196,7 +196,7 @@ TEST(PlaceDescriptor, IsHeadingInvariantAndRecoversTheYaw) {
 TEST(FrontendParams, LoadsEverySectionAndNamesBadKeys) {
   const ConfigNode root = ConfigNode::fromString(R"(
 preprocess: {min_range: 1.5, max_range: 80, voxel: 0.4, max_points: 5000}
-keyframes: {distance: 3.0, rotation_deg: 15}
+keyframes: {distance: 3.0, rotation_deg: 15, revisit_radius: 5}
 local_map: {keyframes: 8, voxel: 0.25, radius: 70}
 tracking: {icp: {max_correspondence_distance: 0.8}, min_quality: 0.2,
            max_correction_rotation_deg: 6, floor_sigma_rotation_deg: 0.1}
@@ -209,6 +209,7 @@ optimizer: {init: file, max_iterations: 20}
   EXPECT_DOUBLE_EQ(p.preprocess.min_range, 1.5);
   EXPECT_EQ(p.preprocess.max_points, 5000u);
   EXPECT_DOUBLE_EQ(p.keyframes.rotation, 15.0 * kDegToRad);
+  EXPECT_DOUBLE_EQ(p.keyframes.revisit_radius, 5.0);
   EXPECT_EQ(p.local_map.keyframes, 8u);
   EXPECT_DOUBLE_EQ(p.tracking.icp.max_correspondence_distance, 0.8);
   EXPECT_DOUBLE_EQ(p.tracking.max_correction_rotation, 6.0 * kDegToRad);
@@ -233,6 +234,7 @@ optimizer: {init: file, max_iterations: 20}
   };
   expectError("keyframes: {distanse: 3}", "keyframes.distanse");
   expectError("keyframes: {distance: -1}", "distance");
+  expectError("keyframes: {revisit_radius: -2}", "revisit_radius");
   expectError("tracking: {min_quality: 2}", "min_quality");
   expectError("tracking: {icp: {kernel: blah}}", "tracking.icp.kernel");
   expectError("loop_closure: {loss: \"square:1\"}", "loop_closure.loss");

@@ -205,6 +205,62 @@ TEST(FrontendLoop, LoopClosureCorrectsTheDriftOfAWeakOdometry) {
   EXPECT_LT(ate_b.rmse, ate_a.rmse);
 }
 
+// One and a half laps of the block: on the second lap the keyframes that leave the local map
+// lie next to first-lap keyframes. They drop their clouds; the first lap's keep theirs and close
+// the loops.
+TEST(FrontendLoop, KeyframesOfARevisitDropTheirCloudsAndTheLoopStillCloses) {
+  // Off (the default): every keyframe keeps its cloud.
+  EXPECT_EQ(fullRun().stats.keyframes_dropped, 0u);
+  for (const auto& kf : fullRun().keyframes) EXPECT_FALSE(kf.dropped);
+
+  static const test::SimLoop laps =
+      test::simulateBlockDrive("[[0, 0], [1, 0], [1, 1], [0, 1], [0, 0], [1, 0], [1, 1]]");
+  FrontendParams p = loopParams();
+  p.keyframes.revisit_radius = 4.0;
+  Frontend fe(p);
+  LoopRun r;
+  for (const auto& sweep : laps.sweeps) r.results.push_back(fe.process(sweep));
+  fe.finish();
+  r.trajectory = fe.trajectory();
+  r.stats = fe.stats();
+  r.keyframes = fe.keyframes();
+  r.loops = fe.loops();
+
+  ASSERT_GE(r.stats.keyframes_dropped, 1u);
+  std::size_t dropped = 0;
+  for (const auto& kf : r.keyframes) {
+    if (!kf.dropped) {
+      EXPECT_FALSE(kf.cloud.empty()) << "keyframe " << kf.id;
+      continue;
+    }
+    ++dropped;
+    EXPECT_TRUE(kf.cloud.empty()) << "keyframe " << kf.id;
+    EXPECT_TRUE(kf.descriptor.empty()) << "keyframe " << kf.id;
+    // Never one of the local map's keyframes.
+    EXPECT_LT(kf.id + p.local_map.keyframes, r.keyframes.size()) << "keyframe " << kf.id;
+    // An older keyframe of an earlier pass stores the place (the poses have moved since by the
+    // loop correction, a few centimetres here).
+    bool covered = false;
+    for (std::size_t j = 0; j < kf.id; ++j) {
+      const Keyframe& old = r.keyframes[j];
+      covered = covered || (!old.dropped && kf.travelled - old.travelled >= 60.0 &&
+                            (old.T_world_sensor.translation() - kf.T_world_sensor.translation())
+                                    .norm() < p.keyframes.revisit_radius + 0.5);
+    }
+    EXPECT_TRUE(covered) << "keyframe " << kf.id;
+  }
+  EXPECT_EQ(dropped, r.stats.keyframes_dropped);
+  // Loops target keyframes that hold their clouds, and the loop still closes.
+  ASSERT_GE(r.stats.loops_accepted, 1u);
+  for (const auto& lc : r.loops)
+    if (lc.accepted) EXPECT_FALSE(r.keyframes[lc.from].dropped) << "loop " << lc.from;
+  const auto ate = eval::absoluteTrajectoryError(laps.truth, r.trajectory);
+  RecordProperty("keyframes", std::to_string(r.keyframes.size()));
+  RecordProperty("keyframes_dropped", std::to_string(r.stats.keyframes_dropped));
+  RecordProperty("ate_rmse_m", std::to_string(ate.rmse));
+  EXPECT_LT(ate.rmse, 0.08);
+}
+
 // ---------------------------------------------------------------------------------------------
 TEST(FrontendRobust, EmptyNanAndCorruptedSweepsAreBridgedAndWarned) {
   const auto& loop = simLoop();

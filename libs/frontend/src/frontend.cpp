@@ -373,6 +373,26 @@ struct Frontend::Impl {
     frames_since_keyframe = 0;
     recovery.keyframeAdded();
     local_map.afterKeyframe(keyframes, frames.size(), bridged, times);
+    if (p.keyframes.revisit_radius > 0.0 && keyframes.size() > p.local_map.keyframes)
+      dropIfRevisit(keyframes[keyframes.size() - 1 - p.local_map.keyframes]);
+  }
+
+  /// The keyframe that just left the local map drops its cloud when an older keyframe of an
+  /// earlier pass, still holding its own, lies within revisit_radius (current estimates).
+  void dropIfRevisit(Keyframe& kf) {
+    if (kf.dropped) return;
+    const double r2 = p.keyframes.revisit_radius * p.keyframes.revisit_radius;
+    for (std::size_t j = 0; j < kf.id; ++j) {
+      const Keyframe& old = keyframes[j];
+      if (old.dropped || kf.travelled - old.travelled < p.loop_closure.min_travel) continue;
+      if ((old.T_world_sensor.translation() - kf.T_world_sensor.translation()).squaredNorm() > r2)
+        continue;
+      kf.cloud = PointCloud();
+      kf.descriptor = PlaceDescriptor();
+      kf.dropped = true;
+      ++stats.keyframes_dropped;
+      return;
+    }
   }
 
   /// The loop closer searches the newest keyframe; an accepted loop is followed by an

@@ -92,6 +92,7 @@ std::vector<std::pair<double, std::size_t>> LoopCloser::candidates(
   const Keyframe& cur = keyframes[k];
   for (std::size_t j = 0; j < k; ++j) {
     const Keyframe& c = keyframes[j];
+    if (c.dropped) continue;  // an older keyframe stores the place
     const double along = cur.travelled - c.travelled;
     if (along < lp.min_travel) continue;
     const double radius =

@@ -59,14 +59,17 @@ PreprocessParams PreprocessParams::load(const ConfigNode& node) {
 void KeyframeParams::validate() const {
   require(finite(distance) && distance > 0.0, "distance", "must be > 0 [m]");
   require(finite(rotation) && rotation > 0.0, "rotation_deg", "must be > 0 [deg]");
+  require(finite(revisit_radius) && revisit_radius >= 0.0, "revisit_radius",
+          "must be >= 0 [m] (0 = keep every keyframe cloud)");
 }
 
 KeyframeParams KeyframeParams::load(const ConfigNode& node) {
-  node.checkKeys({"distance", "rotation_deg", "max_frames"});
+  node.checkKeys({"distance", "rotation_deg", "max_frames", "revisit_radius"});
   KeyframeParams p;
   node.get("distance", p.distance);
   node.getDegAsRad("rotation_deg", p.rotation);
   node.get("max_frames", p.max_frames);
+  node.get("revisit_radius", p.revisit_radius);
   validateAt(node, [&] { p.validate(); });
   return p;
 }

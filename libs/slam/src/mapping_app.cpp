@@ -353,6 +353,7 @@ RunSummary MappingApp::run() {
     j["loop_candidates"] = st.loop_candidates;
     j["frames"] = n;
     j["keyframes"] = st.keyframes;
+    j["keyframes_dropped"] = st.keyframes_dropped;
     j["frames_tracked"] = st.tracked;
     j["frames_recovered"] = st.recovered;
     j["frames_bridged"] = st.bridged;

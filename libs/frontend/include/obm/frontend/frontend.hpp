@@ -68,6 +68,9 @@ struct Keyframe {
   PlaceDescriptor descriptor;  ///< empty when the descriptor is disabled
   double travelled = 0.0;      ///< [m] path length of the estimate up to this keyframe
   bool bridged = false;        ///< joined to the previous keyframe by a bridge edge (restart)
+  /// The cloud and descriptor were dropped: an older keyframe stores the place
+  /// (KeyframeParams::revisit_radius). Not a loop candidate.
+  bool dropped = false;
 };
 
 /// One verified loop-closure candidate.
@@ -97,6 +100,7 @@ struct FrontendStats {
   std::size_t loops_accepted = 0;
   std::size_t loops_rejected = 0;
   std::size_t optimizations = 0;
+  std::size_t keyframes_dropped = 0;  ///< keyframes whose cloud was dropped on a revisit
 };
 
 /// Which matcher the front-end uses for loop verification and recovery.

@@ -40,6 +40,14 @@ struct KeyframeParams {
   double distance = 4.0;               ///< [m] travelled since the last keyframe
   double rotation = 10.0 * kDegToRad;  ///< [rad] rotated since the last keyframe (YAML `_deg`)
   std::size_t max_frames = 0;          ///< at least every N tracked frames; 0 = no limit
+  /// [m] Memory on revisits: a keyframe that leaves the local map within this distance of an
+  /// older keyframe of an earlier pass (at least loop_closure.min_travel back along the path)
+  /// that still holds its cloud drops its own cloud and place descriptor. The place is stored
+  /// already, so the resident set stops growing once the drive only revisits; the keyframe stays
+  /// a pose-graph node but is no loop candidate and adds no points to keyframes.simplemap or
+  /// scene.3Dscene (the OctoMap is built from the sweeps and is not affected). 0 = keep every
+  /// cloud.
+  double revisit_radius = 0.0;
 
   static KeyframeParams load(const ConfigNode& node);
   void validate() const;
