@@ -83,7 +83,7 @@ def main(argv):
     if os.path.exists(metrics):
         with open(metrics) as f:
             m = json.load(f)
-        keys = [k for k in ('frames', 'keyframes', 'ate_rmse_m', 't_err_percent', 'r_err_deg_per_100m', 'loops_accepted', 'frames_recovered', 'frames_bridged', 'map_restarts') if k in m]
+        keys = [k for k in ('frames', 'keyframes', 'ate_rmse_m', 't_err_percent', 'r_err_deg_per_100m', 'loops_accepted', 'loops_wrong', 'keyframes_dropped', 'frames_recovered', 'frames_bridged', 'map_restarts') if k in m]
         print('metrics.json: ' + ', '.join(f'{k} {m[k]}' for k in keys))
     return 0
 
