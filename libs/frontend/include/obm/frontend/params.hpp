@@ -209,8 +209,10 @@ struct LoopClosureParams {
   /// Covariance floor of loop edges (as TrackingParams::floor_sigma_*).
   double floor_sigma_translation = 0.02;           ///< [m]
   double floor_sigma_rotation = 0.05 * kDegToRad;  ///< [rad] (YAML `_deg`)
-  /// Robust loss of loop edges in the pose graph ("none", "huber:δ", "cauchy:c", "dcs:Φ").
-  backend::EdgeLoss loss{backend::LossKind::Dcs, 10.0};
+  /// Robust loss of loop edges in the pose graph ("none", "huber:δ", "cauchy:c", "dcs:Φ",
+  /// "dcs:auto"). Φ = 1000 (χ² units): a true loop after metres of systematic drift, which the
+  /// odometry information does not model, keeps its weight; a wrong one (χ² ~10⁷) is switched off.
+  backend::EdgeLoss loss{backend::LossKind::Dcs, 1000.0};
   DescriptorParams descriptor;
 
   static LoopClosureParams load(const ConfigNode& node);
