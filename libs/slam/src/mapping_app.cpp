@@ -133,7 +133,7 @@ void scoreLoops(const std::vector<frontend::LoopClosure>& loops,
     const Isometry3d T_from_to_gt = T_world_body[a]->inverse() * *T_world_body[b];
     const Isometry3d E = T_from_to_gt.inverse() * lc.T_from_to;
     const double e_t = E.translation().norm();
-    const double e_r = Eigen::AngleAxisd(E.linear()).angle() * 180.0 / M_PI;
+    const double e_r = rotationAngle(E.linear()) * kRadToDeg;
     if (m.loops_checked == 0) m.loop_error_max_m = m.loop_error_max_deg = 0.0;
     ++m.loops_checked;
     m.loop_error_max_m = std::max(m.loop_error_max_m, e_t);
