@@ -48,8 +48,8 @@ struct LoopRun {
   backend::PoseGraph graph;
 };
 
-LoopRun runLoop(const FrontendParams& p, std::size_t frames = 0) {
-  const auto& loop = simLoop();
+LoopRun runLoop(const FrontendParams& p, std::size_t frames = 0,
+                const test::SimLoop& loop = simLoop()) {
   Frontend fe(p);
   LoopRun r;
   const std::size_t n = frames ? std::min(frames, loop.sweeps.size()) : loop.sweeps.size();
@@ -217,14 +217,7 @@ TEST(FrontendLoop, KeyframesOfARevisitDropTheirCloudsAndTheLoopStillCloses) {
       test::simulateBlockDrive("[[0, 0], [1, 0], [1, 1], [0, 1], [0, 0], [1, 0], [1, 1]]");
   FrontendParams p = loopParams();
   p.keyframes.revisit_radius = 4.0;
-  Frontend fe(p);
-  LoopRun r;
-  for (const auto& sweep : laps.sweeps) r.results.push_back(fe.process(sweep));
-  fe.finish();
-  r.trajectory = fe.trajectory();
-  r.stats = fe.stats();
-  r.keyframes = fe.keyframes();
-  r.loops = fe.loops();
+  const LoopRun r = runLoop(p, 0, laps);
 
   ASSERT_GE(r.stats.keyframes_dropped, 1u);
   std::size_t dropped = 0;
