@@ -15,7 +15,10 @@
 #   turn_jumps   the same places with 1 s lost and the time stamps rewritten (a sudden jump)
 #   revisits     urban_revisits (seed S): streets driven again in the opposite direction, from the
 #                other lane 4 m across, and crossed at 90°
-# Each sequence is run with `--matcher icp` and with the configuration's matcher (obmnet+icp).
+#   offset_revisits  config/sim/suite_offset_revisits.yaml: the same route on 22 m wide avenues,
+#                driven 4.5 m right of the centre line: the opposite passes 9 m across
+# Each sequence is run with `--matcher icp` and with the configuration's matcher (obmnet+icp), and
+# once more per `--model` (the configuration's matcher with that network).
 # Columns: t_err / r_err (KITTI devkit), ATE RMSE, frames recovered / bridged, local-map restarts,
 # loops accepted, "silent" frames (reported tracked, but their motion since the previous frame is
 # off by more than 0.2 m or 1° from the ground truth's), frames/s (wall clock).
@@ -28,18 +31,21 @@
 #   --nice N        niceness of every run                               [default: 5]
 #   --resume        keep runs that already have their results in OUT_DIR
 #   --set KEY=VAL   passed to every obm-map run (repeatable)
+#   --model NAME=PT another network for the OBMNet pipeline, run as pipeline obmnet_NAME
+#                   (repeatable), e.g. --model small=share/obmslam/models/obmnet_lidar_small.pt
 set -euo pipefail
 
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 BUILD=$ROOT/build
 CFG=$ROOT/config/map_kitti.yaml
-ONLY=corridor,open_road,urban,turn_gaps,turn_jumps,revisits
+ONLY=corridor,open_road,urban,turn_gaps,turn_jumps,revisits,offset_revisits
 SEED=5
 NICE=5
 RESUME=0
 SETS=()
+MODELS=()
 
-usage() { sed -n '2,34p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,35p' "$0" | sed 's/^# \{0,1\}//'; }
 POS=()
 while [[ $# -gt 0 ]]; do
   case $1 in
@@ -50,6 +56,10 @@ while [[ $# -gt 0 ]]; do
     --nice) NICE=$2; shift 2 ;;
     --resume) RESUME=1; shift ;;
     --set) SETS+=(--set "$2"); shift 2 ;;
+    --model)
+      [[ $2 == *=* ]] || { echo "slam_suite.sh: --model wants NAME=PATH, got '$2'" >&2; exit 2; }
+      [[ -f ${2#*=} ]] || { echo "slam_suite.sh: --model ${2%%=*}: no file ${2#*=}" >&2; exit 2; }
+      MODELS+=("${2%%=*}=$(cd "$(dirname "${2#*=}")" && pwd)/$(basename "${2#*=}")"); shift 2 ;;
     -h|--help) usage; exit 0 ;;
     -*) echo "slam_suite.sh: unknown option $1" >&2; usage >&2; exit 2 ;;
     *) POS+=("$1"); shift ;;
@@ -106,9 +116,13 @@ run_map() {
   mv "$OUT/runs/$name.command.txt" "$dir/command.txt"
 }
 
-both() {  # both LABEL SEQ: the ICP-only and the OBMNet pipeline
+both() {  # both LABEL SEQ: the ICP-only and the OBMNet pipeline(s)
   run_map "$1.icp" "$2" --matcher icp
   run_map "$1.obmnet" "$2"
+  local m
+  for m in "${MODELS[@]+"${MODELS[@]}"}"; do
+    run_map "$1.obmnet_${m%%=*}" "$2" --set "matcher.obmnet.model_path=${m#*=}"
+  done
 }
 
 if want corridor; then
@@ -139,6 +153,10 @@ fi
 if want revisits; then
   simulate revisits -p urban_revisits -s "$SEED"
   both revisits "$DATA/revisits"
+fi
+if want offset_revisits; then
+  simulate offset_revisits -c "$ROOT/config/sim/suite_offset_revisits.yaml"
+  both offset_revisits "$DATA/offset_revisits"
 fi
 
 python3 "$ROOT/scripts/slam_suite_table.py" "$OUT" > "$OUT/table.md.tmp"

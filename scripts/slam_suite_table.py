@@ -88,7 +88,8 @@ def main():
     out = sys.argv[1]
     runs_dir = os.path.join(out, "runs")
     names = sorted(d for d in os.listdir(runs_dir) if os.path.isdir(os.path.join(runs_dir, d)))
-    order = ["corridor", "open_road", "urban", "turn_gaps", "turn_jumps", "revisits"]
+    order = ["corridor", "open_road", "urban", "turn_gaps", "turn_jumps", "revisits",
+             "offset_revisits"]
     names.sort(key=lambda n: (order.index(n.split(".")[0]) if n.split(".")[0] in order else 99, n))
     print("| sequence | pipeline | frames | length | t_err [%] | r_err [°/100 m] | ATE RMSE | recovered "
           "| bridged | restarts | loops | wrong loops | silent frames | frames/s |")
@@ -103,8 +104,11 @@ def main():
         seq, _, pipeline = name.partition(".")
         fmt = lambda x, f: "—" if x is None else f.format(x)
         silent = silent_frames(run, m)
+        label = m["matcher"]
+        if pipeline.startswith("obmnet_"):  # slam_suite.sh --model NAME=...
+            label += " (%s)" % pipeline[len("obmnet_"):]
         print("| %s | %s | %d | %.0f m | %s | %s | %.3f m | %d | %d | %d | %d | %s | %s | %.1f |" % (
-            seq, m["matcher"], m["frames"], m["ground_truth_length_m"],
+            seq, label, m["frames"], m["ground_truth_length_m"],
             fmt(m.get("t_err_percent"), "{:.3f}"), fmt(m.get("r_err_deg_per_100m"), "{:.3f}"),
             m["ate_rmse_m"], m["frames_recovered"], m["frames_bridged"], m["map_restarts"],
             m["loops_accepted"], fmt(m.get("loops_wrong"), "{:d}"), fmt(silent, "{:d}"),

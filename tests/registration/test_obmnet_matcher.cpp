@@ -137,6 +137,38 @@ TEST_F(ObmNetMatchers, ExpectedFailuresAndBadModels) {
   EXPECT_THROW(ObmNetMatcher(params("missing.pt")), IoError);
 }
 
+TEST_F(ObmNetMatchers, QualityAndConditioningAreThoseOfThePoseOnEverySourcePoint) {
+  // The loop and recovery thresholds compare the quality of any matcher: for the OBMNet matchers
+  // it must be the quality ICP's statistics give at the same pose, on every source point, not one
+  // taken on the network's weighted sample or with its predicted overlap.
+  const PointCloud target = test::roomScene(20.0, 10);
+  const PointCloud source = makeSource(target, kTruth, 0.6, 0.0, 11);
+  IcpParams icp;
+  icp.kernel_scale = 0.5;
+  const ConfidenceParams conf;
+  const ObmNetIcpMatcher refined(params(), icp, conf);
+  const ObmNetMatcher alone(params(), icp, conf);
+  const PreparedTarget prepared = refined.prepare(target);
+  for (const ScanMatcher* m : {static_cast<const ScanMatcher*>(&refined),
+                               static_cast<const ScanMatcher*>(&alone)}) {
+    const MatchResult r = m->match(source, prepared, kTruth * perturbation(0.2, 3.0));
+    ASSERT_NE(r.status, MatchStatus::TooFewCorrespondences) << m->name() << ": " << r.message;
+    const AlignmentStats all =
+        evaluateAlignment(source.points, nullptr, prepared, r.T_target_source, icp, conf);
+    EXPECT_DOUBLE_EQ(r.conditioning, all.conditioning) << m->name();
+    EXPECT_DOUBLE_EQ(r.quality, matchQuality(all.inlier_ratio, all.rmse, all.overlap,
+                                             all.conditioning, icp.max_correspondence_distance,
+                                             conf))
+        << m->name();
+    EXPECT_GE(r.network_confidence, 0.0) << m->name() << ": the network's own view is kept";
+  }
+  // At the exact pose of the refined matcher, ICP reports the same quality.
+  const MatchResult r = refined.match(source, prepared, kTruth * perturbation(0.2, 3.0));
+  const MatchResult i = IcpMatcher(icp, conf).match(source, prepared, r.T_target_source);
+  EXPECT_GT(r.quality, 0.5);
+  EXPECT_NEAR(r.quality, i.quality, 1e-6);
+}
+
 TEST_F(ObmNetMatchers, OverlapStageKeepsTheExactSolution) {
   // The overlap stage (an ICP on the network's most-weighted points first) changes where the full
   // ICP starts, not what it converges to: on the noise-free room both reach the truth.

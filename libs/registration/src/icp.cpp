@@ -256,7 +256,10 @@ void applyConfidence(MatchResult& result, const AlignmentStats& all_stats,
   if (set_overlap) result.overlap = all_stats.overlap;
   result.information = info_stats.information;
   result.sigma = std::sqrt(info_stats.sigma2_used);
-  result.conditioning = info_stats.conditioning;
+  // Conditioning and quality are properties of the pose and the geometry, taken on every source
+  // point whichever matcher produced the pose, so that one threshold means the same for all of
+  // them; only the information carries the matcher's own weights (the network's ω).
+  result.conditioning = all_stats.conditioning;
   const bool too_few = !info_stats.valid || all_stats.num_correspondences <
                                                 static_cast<std::size_t>(icp.min_correspondences);
   if (too_few) {
@@ -279,8 +282,8 @@ void applyConfidence(MatchResult& result, const AlignmentStats& all_stats,
                      std::to_string(confidence.degeneracy_threshold) +
                      " (a direction is unconstrained by the geometry)";
   }
-  result.quality = matchQuality(result.inlier_ratio, result.rmse, result.overlap,
-                                result.conditioning, icp.max_correspondence_distance, confidence);
+  result.quality = matchQuality(all_stats.inlier_ratio, all_stats.rmse, all_stats.overlap,
+                                all_stats.conditioning, icp.max_correspondence_distance, confidence);
 }
 
 IcpMatcher::IcpMatcher(const IcpParams& icp, const ConfidenceParams& confidence)

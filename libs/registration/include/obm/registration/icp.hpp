@@ -61,7 +61,9 @@ class IcpMatcher : public ScanMatcher {
 /// inlier_ratio, rmse, num_correspondences, and overlap when `set_overlap`) from `all_stats`
 /// (every source point, unit prior weights) and `info_stats` (the points the information is
 /// built from; may be the same), and turns an Ok status into Degenerate / TooFewCorrespondences
-/// when the statistics say so. Shared by the matchers.
+/// when the statistics say so. Only the information and sigma come from `info_stats`: the
+/// conditioning, the degeneracy and the quality are taken on every source point, so they are the
+/// same function of the pose for every matcher. Shared by the matchers.
 void applyConfidence(MatchResult& result, const AlignmentStats& all_stats,
                      const AlignmentStats& info_stats, bool set_overlap, const IcpParams& icp,
                      const ConfidenceParams& confidence);

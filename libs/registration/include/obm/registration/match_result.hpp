@@ -60,9 +60,13 @@ struct MatchResult {
   /// (source-frame) small-angle twist coordinates described in the file comment.
   Matrix6d information = Matrix6d::Zero();
   double sigma = 0.0;  ///< [m] residual standard deviation σ used in Ω (after the floor)
-  /// Normalised smallest eigenvalue of H (0 = degenerate; ~0.1 for a box seen from inside).
+  /// Normalised smallest eigenvalue of H over every source point at the solution, whichever
+  /// matcher (0 = degenerate; ~0.1 for a box seen from inside).
   double conditioning = 0.0;
-  double quality = 0.0;     ///< scalar in [0, 1]; threshold it to reject bad matches
+  /// Scalar in [0, 1] from inlier ratio, rmse, fitness and conditioning at the solution, over
+  /// every source point: the same function of the pose for every matcher, so one threshold
+  /// rejects bad matches of any of them. The network's own view is `network_confidence`.
+  double quality = 0.0;
   double runtime_ms = 0.0;  ///< wall time of match() including preprocessing
 
   bool ok() const { return status == MatchStatus::Ok; }
