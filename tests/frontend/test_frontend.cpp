@@ -245,8 +245,11 @@ TEST(FrontendLoop, KeyframesOfARevisitDropTheirCloudsAndTheLoopStillCloses) {
   EXPECT_EQ(dropped, r.stats.keyframes_dropped);
   // Loops target keyframes that hold their clouds, and the loop still closes.
   ASSERT_GE(r.stats.loops_accepted, 1u);
-  for (const auto& lc : r.loops)
-    if (lc.accepted) EXPECT_FALSE(r.keyframes[lc.from].dropped) << "loop " << lc.from;
+  for (const auto& lc : r.loops) {
+    if (lc.accepted) {
+      EXPECT_FALSE(r.keyframes[lc.from].dropped) << "loop " << lc.from;
+    }
+  }
   const auto ate = eval::absoluteTrajectoryError(laps.truth, r.trajectory);
   RecordProperty("keyframes", std::to_string(r.keyframes.size()));
   RecordProperty("keyframes_dropped", std::to_string(r.stats.keyframes_dropped));

@@ -263,5 +263,66 @@ TEST(FrontendParts, TheLoopCloserVerifiesACandidateFarEnoughAlongThePath) {
   EXPECT_STREQ(closer.verifyStage(), "loop_icp");
 }
 
+/// Stands in for a matcher that registers without the guess and picks the wrong one of two
+/// symmetric poses: it returns the estimate turned by 180° about z, with the scores of a perfect
+/// registration (as a street of identical facades gives one).
+class FlippedPoseMatcher : public ScanMatcher {
+ public:
+  FlippedPoseMatcher() : ScanMatcher(IcpParams(), ConfidenceParams()) {}
+  std::string name() const override { return "flipped"; }
+  bool global() const override { return true; }
+
+ protected:
+  MatchResult impl_match(const PointCloud& /*source*/, const PreparedTarget& /*target*/,
+                         const Isometry3d& T_target_source_init) const override {
+    MatchResult r;
+    Isometry3d turn = Isometry3d::Identity();
+    turn.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    r.T_target_source = T_target_source_init * turn;
+    r.status = MatchStatus::Ok;
+    r.converged = true;
+    r.quality = 0.9;
+    r.inlier_ratio = 0.96;
+    r.information = Matrix6d::Identity() * 100.0;
+    return r;
+  }
+};
+
+TEST(FrontendParts, TheLoopCloserRejectsAPoseTurnedBeyondTheHeadingDrift) {
+  auto run = [](double max_rotation_deg) {
+    LoopClosureParams lp;
+    lp.enabled = true;
+    lp.use_descriptor = false;
+    lp.check_every = 1;
+    lp.min_travel = 50.0;
+    lp.max_correction_rotation = max_rotation_deg * kDegToRad;
+    lp.correction_rotation_per_m = 0.01 * kDegToRad;
+    const FlippedPoseMatcher flipped;
+    LoopCloser closer(lp, 0.3, flipped);
+    backend::Optimizer optimizer;
+    FrontendStats stats;
+    StageTimes times;
+    std::vector<LoopClosure> loops;
+    const Isometry3d I = Isometry3d::Identity();
+    std::vector<Keyframe> kfs{keyframe(0, I, 0.0, I), keyframe(1, shifted(0.1), 100.0, I)};
+    optimizer.addNode(0, kfs[0].T_world_sensor);
+    optimizer.addNode(1, kfs[1].T_world_sensor);
+    closer.search(kfs, loops, optimizer, stats, times);
+    return loops;
+  };
+  const std::vector<LoopClosure> bounded = run(15.0);
+  ASSERT_EQ(bounded.size(), 1u);
+  EXPECT_FALSE(bounded[0].accepted);
+  EXPECT_NEAR(bounded[0].correction_rotation * kRadToDeg, 180.0, 1e-6);
+  // 15° + 0.01°/m × 100 m = 16°.
+  EXPECT_NE(bounded[0].reason.find("rotation correction 180"), std::string::npos)
+      << bounded[0].reason;
+  EXPECT_NE(bounded[0].reason.find("at most 16"), std::string::npos) << bounded[0].reason;
+  // Without the bound the flipped pose passes every other check: the bound is what stops it.
+  const std::vector<LoopClosure> unbounded = run(0.0);
+  ASSERT_EQ(unbounded.size(), 1u);
+  EXPECT_TRUE(unbounded[0].accepted) << unbounded[0].reason;
+}
+
 }  // namespace
 }  // namespace obm::frontend

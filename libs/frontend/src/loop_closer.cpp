@@ -4,6 +4,7 @@
 
 #include "obm/core/cloud_ops.hpp"
 #include "obm/core/log.hpp"
+#include "obm/core/se3.hpp"
 #include "edge_information.hpp"
 
 namespace obm::frontend {
@@ -132,7 +133,9 @@ MatchResult LoopCloser::verify(LoopClosure& lc, const std::vector<Keyframe>& key
   lc.T_from_to = r.T_target_source;
   lc.quality = r.quality;
   lc.inlier_ratio = r.inlier_ratio;
-  lc.correction = (T_init.inverse() * r.T_target_source).translation().norm();
+  const Isometry3d correction = T_init.inverse() * r.T_target_source;
+  lc.correction = correction.translation().norm();
+  lc.correction_rotation = rotationAngle(correction.linear());
   return r;
 }
 
@@ -150,6 +153,12 @@ std::string LoopCloser::rejectReason(const LoopClosure& lc, const MatchResult& r
   if (r.quality < lp.min_quality) return "quality " + std::to_string(r.quality);
   if (r.inlier_ratio < lp.min_inlier_ratio) return "inlier ratio " + std::to_string(r.inlier_ratio);
   if (lc.correction > max_corr) return "correction " + std::to_string(lc.correction) + " m";
+  if (lp.max_correction_rotation > 0.0) {
+    const double max_rot = lp.max_correction_rotation + lp.correction_rotation_per_m * travelled;
+    if (lc.correction_rotation > max_rot)
+      return "rotation correction " + std::to_string(lc.correction_rotation * kRadToDeg) +
+             " deg (at most " + std::to_string(max_rot * kRadToDeg) + ")";
+  }
   return {};
 }
 

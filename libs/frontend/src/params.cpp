@@ -265,6 +265,10 @@ void LoopClosureParams::validate() const {
           "must be in [0, 1]");
   require(finite(max_correction) && max_correction >= 0.0, "max_correction",
           "must be >= 0 [m] (0 = the search radius)");
+  require(finite(max_correction_rotation) && max_correction_rotation >= 0.0,
+          "max_correction_rotation_deg", "must be >= 0 [deg] (0 = no bound)");
+  require(finite(correction_rotation_per_m) && correction_rotation_per_m >= 0.0,
+          "correction_rotation_per_m_deg", "must be >= 0 [deg/m]");
   require(finite(information_scale) && information_scale > 0.0, "information_scale", "must be > 0");
   require(finite(floor_sigma_translation) && floor_sigma_translation >= 0.0,
           "floor_sigma_translation", "must be >= 0 [m]");
@@ -282,7 +286,8 @@ LoopClosureParams LoopClosureParams::load(const ConfigNode& node) {
   node.checkKeys({"enabled", "min_travel", "search_radius", "search_radius_per_m",
                   "max_search_radius", "check_every", "max_candidates", "cooldown",
                   "submap_keyframes", "use_descriptor", "max_descriptor_distance", "min_quality",
-                  "min_inlier_ratio", "max_correction", "information_scale",
+                  "min_inlier_ratio", "max_correction", "max_correction_rotation_deg",
+                  "correction_rotation_per_m_deg", "information_scale",
                   "floor_sigma_translation", "floor_sigma_rotation_deg", "loss", "descriptor"});
   LoopClosureParams p;
   node.get("enabled", p.enabled);
@@ -299,6 +304,8 @@ LoopClosureParams LoopClosureParams::load(const ConfigNode& node) {
   node.get("min_quality", p.min_quality);
   node.get("min_inlier_ratio", p.min_inlier_ratio);
   node.get("max_correction", p.max_correction);
+  node.getDegAsRad("max_correction_rotation_deg", p.max_correction_rotation);
+  node.getDegAsRad("correction_rotation_per_m_deg", p.correction_rotation_per_m);
   node.get("information_scale", p.information_scale);
   node.get("floor_sigma_translation", p.floor_sigma_translation);
   node.getDegAsRad("floor_sigma_rotation_deg", p.floor_sigma_rotation);

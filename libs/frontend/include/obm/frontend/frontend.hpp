@@ -82,6 +82,7 @@ struct LoopClosure {
   double inlier_ratio = 0.0;
   double descriptor_distance = -1.0;  ///< -1 when not computed
   double correction = 0.0;  ///< [m] distance between the verified pose and the current estimate
+  double correction_rotation = 0.0;  ///< [rad] rotation between the verified pose and the estimate
   bool accepted = false;
   std::string reason;  ///< why it was rejected ("" when accepted)
 };

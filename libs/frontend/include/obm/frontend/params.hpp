@@ -205,6 +205,13 @@ struct LoopClosureParams {
   /// [m] the verified pose may differ from the current estimate by at most this (more is an
   /// implausible correction for the drift since the candidate). 0 = the search radius.
   double max_correction = 0.0;
+  /// [rad] (YAML `_deg`) the verified pose may turn the current estimate by at most this plus
+  /// `correction_rotation_per_m` per metre travelled since the candidate (heading drift). A
+  /// registration at a symmetric place (a street of identical facades seen from the other end, a
+  /// square room) can pair as many points at 180° as at the truth; the odometry's heading since
+  /// the candidate rules it out. 0 = no bound.
+  double max_correction_rotation = 0.0;
+  double correction_rotation_per_m = 0.0;  ///< [rad/m] (YAML `_deg`)
   double information_scale = 1.0;  ///< multiplies the loop edge's information before the floor
   /// Covariance floor of loop edges (as TrackingParams::floor_sigma_*).
   double floor_sigma_translation = 0.02;           ///< [m]
