@@ -13,6 +13,8 @@
 #   turn_gaps    kitti_like_urban (seed S) with 1, 2 and 3 s of sweeps lost inside three turns
 #                (the time stamps show the gaps; scripts/drop_sweeps.py)
 #   turn_jumps   the same places with 1 s lost and the time stamps rewritten (a sudden jump)
+#   long_gaps    the same places with 4, 5 and 6 s lost (the time stamps show the gaps): the car
+#                leaves the turn, and up to 60 m of street, unseen
 #   revisits     urban_revisits (seed S): streets driven again in the opposite direction, from the
 #                other lane 4 m across, and crossed at 90°
 #   offset_revisits  config/sim/suite_offset_revisits.yaml: the same route on 22 m wide avenues,
@@ -38,14 +40,14 @@ set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 BUILD=$ROOT/build
 CFG=$ROOT/config/map_kitti.yaml
-ONLY=corridor,open_road,urban,turn_gaps,turn_jumps,revisits,offset_revisits
+ONLY=corridor,open_road,urban,turn_gaps,turn_jumps,long_gaps,revisits,offset_revisits
 SEED=5
 NICE=5
 RESUME=0
 SETS=()
 MODELS=()
 
-usage() { sed -n '2,35p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,37p' "$0" | sed 's/^# \{0,1\}//'; }
 POS=()
 while [[ $# -gt 0 ]]; do
   case $1 in
@@ -133,7 +135,7 @@ if want open_road; then
   simulate open_road -c "$ROOT/config/sim/suite_open_road.yaml"
   both open_road "$DATA/open_road"
 fi
-if want urban || want turn_gaps || want turn_jumps; then
+if want urban || want turn_gaps || want turn_jumps || want long_gaps; then
   simulate urban_s$SEED -p kitti_like_urban -s "$SEED"
   want urban && both urban "$DATA/urban_s$SEED"
   read -r t1 t2 t3 <<< "$(turn_frames "$DATA/urban_s$SEED" 3)"
@@ -147,8 +149,14 @@ if want urban || want turn_gaps || want turn_jumps; then
     python3 "$ROOT/scripts/drop_sweeps.py" "$DATA/urban_s$SEED" "$DATA/turn_jumps" \
       --drop "$t1:10" "$t2:10" "$t3:10" --hide-gaps
   fi
+  if want long_gaps && [[ ! -f $DATA/long_gaps/times.txt ]]; then
+    rm -rf "$DATA/long_gaps"
+    python3 "$ROOT/scripts/drop_sweeps.py" "$DATA/urban_s$SEED" "$DATA/long_gaps" \
+      --drop "$t1:40" "$t2:50" "$t3:60"
+  fi
   want turn_gaps && both turn_gaps "$DATA/turn_gaps"
   want turn_jumps && both turn_jumps "$DATA/turn_jumps"
+  want long_gaps && both long_gaps "$DATA/long_gaps"
 fi
 if want revisits; then
   simulate revisits -p urban_revisits -s "$SEED"
