@@ -2,6 +2,7 @@
 // obm::slam::MappingApp; this file only parses the command line.
 #include <CLI/CLI.hpp>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -45,7 +46,7 @@ int main(int argc, char** argv) {
   app.add_option("-n,--max-frames", opt.max_frames,
                  "stop after this many frames, 0 = all [default: 0]");
   app.add_option("--matcher", matcher,
-                 "override matcher.type of the configuration: icp, obmnet or obmnet+icp");
+                 "override matcher.type of the configuration: icp, obmnet, obmnet+icp or obmm+icp");
   std::vector<std::string> overrides;
   app.add_option("--set", overrides,
                  "override any configuration key, repeatable: --set loop_closure.min_travel=80 "
@@ -62,13 +63,14 @@ int main(int argc, char** argv) {
     obm::applyOverrides(root, overrides);
     obm::slam::SlamConfig cfg = obm::slam::SlamConfig::load(root);
     if (!matcher.empty()) {
-      if (matcher != "icp" && matcher != "obmnet" && matcher != "obmnet+icp")
-        throw obm::ConfigError("--matcher: unknown type '" + matcher +
-                               "' (icp, obmnet, obmnet+icp)");
-      if (matcher != "icp" && cfg.frontend.matcher.obmnet.model_path.empty())
+      const std::optional<obm::MatcherKind> kind = obm::parseMatcherKind(matcher);
+      if (!kind)
+        throw obm::ConfigError("--matcher: unknown type '" + matcher + "' (" +
+                               obm::matcherKindNames() + ")");
+      if (obm::usesNetwork(*kind) && cfg.frontend.matcher.obmnet.model_path.empty())
         throw obm::ConfigError("--matcher " + matcher + ": the configuration '" + config +
                                "' has no matcher.obmnet section with a model_path");
-      cfg.frontend.matcher.type = matcher;
+      cfg.frontend.matcher.type = *kind;
     }
     if (no_loops) cfg.frontend.loop_closure.enabled = false;
     if (no_map) cfg.output.map = false;

@@ -218,8 +218,8 @@ optimizer: {init: file, max_iterations: 20}
   EXPECT_EQ(p.loop_closure.loss.kind, backend::LossKind::Cauchy);
   EXPECT_DOUBLE_EQ(p.loop_closure.loss.scale, 2.0);
   EXPECT_EQ(p.loop_closure.descriptor.sectors, 30);
-  EXPECT_EQ(p.matcher.type, "icp");
-  EXPECT_EQ(p.matcher_fallback, "icp");
+  EXPECT_EQ(p.matcher.type, MatcherKind::Icp);
+  EXPECT_EQ(p.matcher_fallback, MatcherKind::Icp);
   EXPECT_DOUBLE_EQ(p.matcher.icp.initial_max_correspondence_distance, 3.0);
   EXPECT_EQ(p.optimizer.max_iterations, 20);
 
@@ -240,6 +240,8 @@ optimizer: {init: file, max_iterations: 20}
   expectError("loop_closure: {loss: \"square:1\"}", "loop_closure.loss");
   expectError("loop_closure: {descriptor: {sectors: 2}}", "sectors");
   expectError("matcher: {type: sift}", "matcher.type");
+  expectError("matcher: {type: icp, fallback: sift}", "matcher.fallback");
+  expectError("loop_closure: {max_correction_rotation_deg: -1}", "max_correction_rotation_deg");
   expectError("local_map: {keyframes: 0}", "keyframes");
   expectError("tracking: {recovery_confirm_jumps: true}", "recovery_confirm_jumps");
   expectError("tracking: {recovery_confirmed_relative_inlier_ratio: 1.5}",
@@ -268,12 +270,12 @@ TEST(FrontendParams, MissingModelFallsBackOnlyWhenConfigured) {
             std::filesystem::path(dir) / "models/none.pt");
   const MatcherChoice c = chooseMatcher(p);
   EXPECT_TRUE(c.fell_back);
-  EXPECT_EQ(c.config.type, "icp");
+  EXPECT_EQ(c.config.type, MatcherKind::Icp);
   EXPECT_NE(c.message.find("none.pt"), std::string::npos) << c.message;
   EXPECT_NE(c.message.find("fallback"), std::string::npos) << c.message;
 
   FrontendParams strict = p;
-  strict.matcher_fallback.clear();
+  strict.matcher_fallback.reset();
   try {
     chooseMatcher(strict);
     ADD_FAILURE() << "a missing model without fallback must be an error";
@@ -287,10 +289,10 @@ TEST(FrontendParams, MissingModelFallsBackOnlyWhenConfigured) {
   }
   // ICP needs no model.
   FrontendParams icp = strict;
-  icp.matcher.type = "icp";
+  icp.matcher.type = MatcherKind::Icp;
   const MatcherChoice ci = chooseMatcher(icp);
   EXPECT_FALSE(ci.fell_back);
-  EXPECT_EQ(ci.config.type, "icp");
+  EXPECT_EQ(ci.config.type, MatcherKind::Icp);
 }
 
 }  // namespace

@@ -30,7 +30,7 @@ FrontendParams loopParams() {
   p.tracking.max_correction_rotation = 12.0 * kDegToRad;
   p.loop_closure.min_travel = 60.0;
   p.loop_closure.check_every = 1;
-  p.matcher.type = "icp";
+  p.matcher.type = MatcherKind::Icp;
   p.matcher.icp.source_voxel = 0.5;
   p.matcher.icp.initial_max_correspondence_distance = 4.0;
   p.matcher.icp.max_iterations = 60;

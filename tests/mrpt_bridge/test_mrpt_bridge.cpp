@@ -79,7 +79,7 @@ PointCloud transformed(const PointCloud& c, const Isometry3d& T) {
 
 ScanMatcherConfig lidarIcp() {
   ScanMatcherConfig cfg;
-  cfg.type = "icp";
+  cfg.type = MatcherKind::Icp;
   cfg.icp.max_correspondence_distance = 1.0;
   cfg.icp.initial_max_correspondence_distance = 2.0;
   cfg.icp.max_iterations = 60;

@@ -41,7 +41,7 @@ confidence:
   degeneracy_threshold: 0.002
 )");
   const ScanMatcherConfig c = ScanMatcherConfig::load(node);
-  EXPECT_EQ(c.type, "icp");
+  EXPECT_EQ(c.type, MatcherKind::Icp);
   EXPECT_EQ(c.icp.source_voxel, 0.3);
   EXPECT_EQ(c.icp.target_voxel, 0.2);
   EXPECT_EQ(c.icp.normal_neighbors, 12);
@@ -76,7 +76,7 @@ confidence:
 
 TEST(RegistrationConfig, DefaultsWhenKeysAreAbsent) {
   const ScanMatcherConfig c = ScanMatcherConfig::load(ConfigNode::fromString("{}"));
-  EXPECT_EQ(c.type, "icp");
+  EXPECT_EQ(c.type, MatcherKind::Icp);
   EXPECT_EQ(c.icp.max_correspondence_distance, IcpParams().max_correspondence_distance);
   EXPECT_EQ(c.icp.kernel, IcpParams().kernel);
   EXPECT_EQ(c.confidence.min_sigma, ConfidenceParams().min_sigma);
@@ -115,7 +115,7 @@ TEST(RegistrationConfig, ErrorsNameFileAndKey) {
 TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
   const ScanMatcherConfig c = ScanMatcherConfig::load(
       ConfigNode::loadFile(std::string(OBM_SOURCE_DIR) + "/config/registration/obmnet_icp.yaml"));
-  EXPECT_EQ(c.type, "obmnet+icp");
+  EXPECT_EQ(c.type, MatcherKind::ObmNetIcp);
   EXPECT_TRUE(c.obmnet.pre_align);
   // Resolved against the YAML file's folder.
   EXPECT_EQ(c.obmnet.model_path.rfind(std::string(OBM_SOURCE_DIR) + "/config/registration/", 0), 0u)
@@ -140,7 +140,7 @@ TEST(RegistrationConfig, ShippedIcpConfigHoldsTheDefaults) {
   const ScanMatcherConfig c = ScanMatcherConfig::load(
       ConfigNode::loadFile(std::string(OBM_SOURCE_DIR) + "/config/registration/icp.yaml"));
   const IcpParams d;
-  EXPECT_EQ(c.type, "icp");
+  EXPECT_EQ(c.type, MatcherKind::Icp);
   EXPECT_EQ(c.icp.source_voxel, d.source_voxel);
   EXPECT_EQ(c.icp.target_voxel, d.target_voxel);
   EXPECT_EQ(c.icp.normal_neighbors, d.normal_neighbors);
@@ -172,7 +172,7 @@ TEST(RegistrationConfig, ShippedIcpConfigHoldsTheDefaults) {
 TEST(RegistrationConfig, ObmNetTypesNeedLibTorch) {
   // This build has no LibTorch: the OBMNet matchers say so instead of failing later.
   ScanMatcherConfig c;
-  c.type = "obmnet+icp";
+  c.type = MatcherKind::ObmNetIcp;
   c.obmnet.model_path = "any.pt";
   EXPECT_THROW(makeScanMatcher(c), ConfigError);
   EXPECT_THROW(ObmNetMatcher(c.obmnet), ConfigError);

@@ -32,13 +32,13 @@ class KittiObmNet : public ::testing::Test {
         ConfigNode::loadFile(std::string(OBM_SOURCE_DIR) + "/config/map_kitti.yaml");
     const auto m = map_cfg.child("matcher");
     ScanMatcherConfig cfg;
-    cfg.type = "obmnet+icp";
+    cfg.type = MatcherKind::ObmNetIcp;
     cfg.icp = IcpParams::load(m.child("icp"));
     cfg.confidence = ConfidenceParams::load(m.child("confidence"));
     cfg.obmnet = ObmNetMatcherParams::load(m.child("obmnet"));
     cfg.obmnet.model_path = kModel;
     matcher = makeScanMatcher(cfg);
-    cfg.type = "obmnet";
+    cfg.type = MatcherKind::ObmNet;
     network = makeScanMatcher(cfg);
     for (std::size_t i = 0; i < 6; ++i) {
       const std::string path =

@@ -24,10 +24,6 @@ namespace {
 
 constexpr const char* kLog = "frontend";
 
-bool isObmNetType(const std::string& type) {
-  return type == "obmnet" || type == "obmnet+icp" || type == "obmm+icp";
-}
-
 struct FrameRecord {
   double timestamp = 0.0;
   std::size_t keyframe = 0;
@@ -54,33 +50,32 @@ const char* toString(TrackingStatus status) {
 MatcherChoice chooseMatcher(const FrontendParams& params) {
   MatcherChoice c;
   c.config = params.matcher;
-  if (!isObmNetType(c.config.type)) {
-    c.message = "matcher: " + c.config.type;
+  const std::string type = toString(c.config.type);
+  if (!usesNetwork(c.config.type)) {
+    c.message = "matcher: " + type;
     return c;
   }
   const std::string& model = c.config.obmnet.model_path;
   const bool available = obmNetAvailable();
   if (available && std::filesystem::is_regular_file(model)) {
-    c.message = "matcher: " + c.config.type + " (model " + model + ")";
+    c.message = "matcher: " + type + " (model " + model + ")";
     return c;
   }
   const std::string why =
-      available ? "the OBMNet model '" + model + "' of matcher.type '" + params.matcher.type +
-                      "' does not exist"
+      available ? "the OBMNet model '" + model + "' of matcher.type '" + type + "' does not exist"
                 : "this build has no OBMNet (LibTorch) to run the model '" + model + "'";
-  if (params.matcher_fallback.empty()) {
+  if (!params.matcher_fallback) {
     if (!available)
-      throw ConfigError("matcher.type '" + c.config.type + "': " + why +
-                        " (set matcher.fallback: icp)");
-    throw IoError("matcher: the OBMNet model '" + model + "' of matcher.type '" + c.config.type +
+      throw ConfigError("matcher.type '" + type + "': " + why + " (set matcher.fallback: icp)");
+    throw IoError("matcher: the OBMNet model '" + model + "' of matcher.type '" + type +
                   "' does not exist (train one with obm-train, or set matcher.fallback: icp)");
   }
-  if (isObmNetType(params.matcher_fallback))
-    throw ConfigError("matcher.fallback: '" + params.matcher_fallback +
+  if (usesNetwork(*params.matcher_fallback))
+    throw ConfigError("matcher.fallback: '" + std::string(toString(*params.matcher_fallback)) +
                       "' needs the same missing model '" + model + "'; use icp");
-  c.config.type = params.matcher_fallback;
+  c.config.type = *params.matcher_fallback;
   c.fell_back = true;
-  c.message = "matcher: " + c.config.type + " (fallback: " + why + ")";
+  c.message = "matcher: " + std::string(toString(c.config.type)) + " (fallback: " + why + ")";
   return c;
 }
 

@@ -334,10 +334,6 @@ void FrontendParams::validate() const {
   local_map.validate();
   tracking.validate();
   loop_closure.validate();
-  if (!matcher_fallback.empty() && matcher_fallback != "icp" && matcher_fallback != "obmnet" &&
-      matcher_fallback != "obmnet+icp")
-    throw ConfigError("matcher.fallback: unknown matcher type '" + matcher_fallback +
-                      "' (icp, obmnet, obmnet+icp)");
 }
 
 FrontendParams FrontendParams::load(const ConfigNode& node) {
@@ -352,7 +348,11 @@ FrontendParams FrontendParams::load(const ConfigNode& node) {
     const ConfigNode m = node.child("matcher");
     YAML::Node copy = YAML::Clone(m.yaml());
     if (copy.IsMap() && copy["fallback"]) {
-      p.matcher_fallback = m.required<std::string>("fallback");
+      const std::string name = m.required<std::string>("fallback");
+      p.matcher_fallback = parseMatcherKind(name);
+      if (!p.matcher_fallback)
+        throw ConfigError(m.where("fallback") + ": unknown matcher type '" + name + "' (" +
+                          matcherKindNames() + ")");
       copy.remove("fallback");
     }
     p.matcher = ScanMatcherConfig::load(ConfigNode(copy, m.file(), "matcher"));

@@ -44,18 +44,52 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   return p;
 }
 
+namespace {
+constexpr MatcherKind kKinds[] = {MatcherKind::Icp, MatcherKind::ObmNet, MatcherKind::ObmNetIcp,
+                                  MatcherKind::ObmmIcp};
+}  // namespace
+
+const char* toString(MatcherKind kind) {
+  switch (kind) {
+    case MatcherKind::Icp:
+      return "icp";
+    case MatcherKind::ObmNet:
+      return "obmnet";
+    case MatcherKind::ObmNetIcp:
+      return "obmnet+icp";
+    case MatcherKind::ObmmIcp:
+      return "obmm+icp";
+  }
+  return "unknown";
+}
+
+std::optional<MatcherKind> parseMatcherKind(const std::string& name) {
+  for (const MatcherKind k : kKinds)
+    if (name == toString(k)) return k;
+  return std::nullopt;
+}
+
+std::string matcherKindNames() {
+  std::string out;
+  for (const MatcherKind k : kKinds) out += (out.empty() ? "" : ", ") + std::string(toString(k));
+  return out;
+}
+
 ScanMatcherConfig ScanMatcherConfig::load(const ConfigNode& node) {
   ScanMatcherConfig c;
   node.checkKeys({"type", "icp", "obmnet", "confidence"});
-  node.get("type", c.type);
-  if (c.type != "icp" && c.type != "obmnet" && c.type != "obmnet+icp" && c.type != "obmm+icp")
-    throw ConfigError(node.where("type") + ": unknown matcher type '" + c.type +
-                      "' (icp, obmnet, obmnet+icp, obmm+icp)");
+  std::string type = toString(c.type);
+  node.get("type", type);
+  const std::optional<MatcherKind> kind = parseMatcherKind(type);
+  if (!kind)
+    throw ConfigError(node.where("type") + ": unknown matcher type '" + type + "' (" +
+                      matcherKindNames() + ")");
+  c.type = *kind;
   c.icp = IcpParams::load(node.child("icp"));
   c.confidence = ConfidenceParams::load(node.child("confidence"));
-  if (c.type != "icp") {
+  if (usesNetwork(c.type)) {
     if (!node.has("obmnet"))
-      throw ConfigError(node.where("obmnet") + ": required for type '" + c.type + "'");
+      throw ConfigError(node.where("obmnet") + ": required for type '" + type + "'");
     c.obmnet = ObmNetMatcherParams::load(node.child("obmnet"));
   } else if (node.has("obmnet")) {
     c.obmnet = ObmNetMatcherParams::load(node.child("obmnet"));  // checked, unused
@@ -64,15 +98,17 @@ ScanMatcherConfig ScanMatcherConfig::load(const ConfigNode& node) {
 }
 
 std::unique_ptr<ScanMatcher> makeScanMatcher(const ScanMatcherConfig& config) {
-  if (config.type == "icp") return std::make_unique<IcpMatcher>(config.icp, config.confidence);
-  if (config.type == "obmnet")
-    return std::make_unique<ObmNetMatcher>(config.obmnet, config.icp, config.confidence);
-  if (config.type == "obmnet+icp")
-    return std::make_unique<ObmNetIcpMatcher>(config.obmnet, config.icp, config.confidence);
-  if (config.type == "obmm+icp")
-    return std::make_unique<ObmmIcpMatcher>(config.obmnet, config.icp, config.confidence);
-  throw ConfigError("scan matcher: unknown type '" + config.type +
-                    "' (icp, obmnet, obmnet+icp, obmm+icp)");
+  switch (config.type) {
+    case MatcherKind::Icp:
+      return std::make_unique<IcpMatcher>(config.icp, config.confidence);
+    case MatcherKind::ObmNet:
+      return std::make_unique<ObmNetMatcher>(config.obmnet, config.icp, config.confidence);
+    case MatcherKind::ObmNetIcp:
+      return std::make_unique<ObmNetIcpMatcher>(config.obmnet, config.icp, config.confidence);
+    case MatcherKind::ObmmIcp:
+      return std::make_unique<ObmmIcpMatcher>(config.obmnet, config.icp, config.confidence);
+  }
+  throw ContractError("makeScanMatcher: invalid MatcherKind");
 }
 
 }  // namespace obm

@@ -6,6 +6,7 @@
 /// and the key. Angles are degrees in YAML (`*_deg`) and radians here.
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -236,9 +237,9 @@ struct FrontendParams {
   /// The scan matcher of loop-closure verification and recovery (YAML `matcher:`, the keys of
   /// obm::ScanMatcherConfig plus `fallback`).
   ScanMatcherConfig matcher;
-  /// Matcher type used instead when `matcher.type` is an OBMNet type and its model file does not
-  /// exist ("" = no fallback: a missing model is an error).
-  std::string matcher_fallback;
+  /// Matcher used instead when `matcher.type` runs the network and its model file does not exist
+  /// (none: a missing model is an error).
+  std::optional<MatcherKind> matcher_fallback;
   backend::Options optimizer;  ///< pose-graph optimiser (YAML `optimizer:`, see config/graph.yaml)
 
   /// Reads the sections `preprocess`, `keyframes`, `local_map`, `tracking`, `loop_closure`,

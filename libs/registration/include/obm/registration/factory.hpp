@@ -9,6 +9,7 @@
 /// \endcode
 /// See config/registration/*.yaml for every key with its default.
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "obm/registration/obmnet_matcher.hpp"
@@ -19,9 +20,26 @@ namespace obm {
 
 class ConfigNode;
 
+/// The scan matchers the factory builds (YAML `type`, obm-map's `--matcher`).
+enum class MatcherKind {
+  Icp,        ///< "icp": ICP from the guess
+  ObmNet,     ///< "obmnet": the network alone
+  ObmNetIcp,  ///< "obmnet+icp": the network's pose refined by ICP
+  ObmmIcp,    ///< "obmm+icp": ICP weighted by the Overlap Bias Matching Module
+};
+
+/// The YAML name of `kind` ("icp", "obmnet", "obmnet+icp", "obmm+icp").
+const char* toString(MatcherKind kind);
+/// The kind `name` names; std::nullopt when it names none.
+std::optional<MatcherKind> parseMatcherKind(const std::string& name);
+/// Every name, for error messages: "icp, obmnet, obmnet+icp, obmm+icp".
+std::string matcherKindNames();
+/// Whether the matcher runs the network (and needs a model file).
+inline bool usesNetwork(MatcherKind kind) { return kind != MatcherKind::Icp; }
+
 /// Everything needed to build a matcher.
 struct ScanMatcherConfig {
-  std::string type = "icp";  ///< "icp", "obmnet", "obmnet+icp" or "obmm+icp"
+  MatcherKind type = MatcherKind::Icp;
   IcpParams icp;
   ObmNetMatcherParams obmnet;  ///< only for the OBMNet types
   ConfidenceParams confidence;
