@@ -2,7 +2,6 @@
 // obm::slam::MappingApp; this file only parses the command line.
 #include <CLI/CLI.hpp>
 #include <iostream>
-#include <optional>
 #include <string>
 #include <vector>
 
@@ -63,14 +62,11 @@ int main(int argc, char** argv) {
     obm::applyOverrides(root, overrides);
     obm::slam::SlamConfig cfg = obm::slam::SlamConfig::load(root);
     if (!matcher.empty()) {
-      const std::optional<obm::MatcherKind> kind = obm::parseMatcherKind(matcher);
-      if (!kind)
-        throw obm::ConfigError("--matcher: unknown type '" + matcher + "' (" +
-                               obm::matcherKindNames() + ")");
-      if (obm::usesNetwork(*kind) && cfg.frontend.matcher.obmnet.model_path.empty())
+      const obm::MatcherKind kind = obm::parseMatcherKind(matcher, "--matcher");
+      if (obm::usesNetwork(kind) && cfg.frontend.matcher.obmnet.model_path.empty())
         throw obm::ConfigError("--matcher " + matcher + ": the configuration '" + config +
                                "' has no matcher.obmnet section with a model_path");
-      cfg.frontend.matcher.type = *kind;
+      cfg.frontend.matcher.type = kind;
     }
     if (no_loops) cfg.frontend.loop_closure.enabled = false;
     if (no_map) cfg.output.map = false;

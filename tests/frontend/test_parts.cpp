@@ -224,12 +224,18 @@ TEST(FrontendParts, AnAsynchronousLocalMapIsInstalledAFixedNumberOfFramesLater) 
   EXPECT_NEAR(minX(map.target().cloud()), minX(kfs[2].cloud) + 50.0f, 1e-3);
 }
 
-TEST(FrontendParts, TheLoopCloserVerifiesACandidateFarEnoughAlongThePath) {
+/// Loop closure on every keyframe, candidates 50 m back along the path, no descriptor check.
+LoopClosureParams everyKeyframeLoops() {
   LoopClosureParams lp;
   lp.enabled = true;
   lp.use_descriptor = false;
   lp.check_every = 1;
   lp.min_travel = 50.0;
+  return lp;
+}
+
+TEST(FrontendParts, TheLoopCloserVerifiesACandidateFarEnoughAlongThePath) {
+  const LoopClosureParams lp = everyKeyframeLoops();
   const IcpMatcher icp;
   LoopCloser closer(lp, 0.3, icp);
   backend::Optimizer optimizer;
@@ -290,11 +296,7 @@ class FlippedPoseMatcher : public ScanMatcher {
 
 TEST(FrontendParts, TheLoopCloserRejectsAPoseTurnedBeyondTheHeadingDrift) {
   auto run = [](double max_rotation_deg) {
-    LoopClosureParams lp;
-    lp.enabled = true;
-    lp.use_descriptor = false;
-    lp.check_every = 1;
-    lp.min_travel = 50.0;
+    LoopClosureParams lp = everyKeyframeLoops();
     lp.max_correction_rotation = max_rotation_deg * kDegToRad;
     lp.correction_rotation_per_m = 0.01 * kDegToRad;
     const FlippedPoseMatcher flipped;

@@ -48,6 +48,25 @@ ObmNetMatcherParams netParams(const std::string& model) {
   return p;
 }
 
+/// A LiDAR sweep as the LiDAR models see it: 2–50 m, 0.3 m voxels.
+PointCloud lidarCloud(const PointCloud& raw) {
+  return voxelDownsample(cropRange(raw, 2.0, 50.0), 0.3);
+}
+
+/// ICP and confidence settings of the LiDAR accuracy tests (metres).
+IcpParams lidarIcp() {
+  IcpParams icp;
+  icp.max_correspondence_distance = 1.0;
+  icp.initial_max_correspondence_distance = 1.0;
+  icp.kernel_scale = 0.2;
+  return icp;
+}
+ConfidenceParams lidarConfidence() {
+  ConfidenceParams conf;
+  conf.inlier_threshold = 0.3;
+  return conf;
+}
+
 }  // namespace
 
 TEST(ModelAccuracy, ObjectModelOnIndependentSamplingsOfUnseenObjects) {
@@ -99,14 +118,10 @@ TEST(ModelAccuracy, LidarModelOnTheRealOutdoorPair) {
   OBM_REQUIRE_SHARED_DATA("real_pairs/lidar_small_gicp/T_target_source.txt");
   const std::string d = test::sharedDataDir() + "/real_pairs/lidar_small_gicp/";
   const Isometry3d gt = test::readMatrix4(d + "T_target_source.txt");
-  const PointCloud source = voxelDownsample(cropRange(io::readPointCloud(d + "source.ply"), 2.0, 50.0), 0.3);
-  const PointCloud target = voxelDownsample(cropRange(io::readPointCloud(d + "target.ply"), 2.0, 50.0), 0.3);
-  IcpParams icp;
-  icp.max_correspondence_distance = 1.0;
-  icp.initial_max_correspondence_distance = 1.0;
-  icp.kernel_scale = 0.2;
-  ConfidenceParams conf;
-  conf.inlier_threshold = 0.3;
+  const PointCloud source = lidarCloud(io::readPointCloud(d + "source.ply"));
+  const PointCloud target = lidarCloud(io::readPointCloud(d + "target.ply"));
+  const IcpParams icp = lidarIcp();
+  const ConfidenceParams conf = lidarConfidence();
   const ObmNetMatcher network(netParams(kModels + "obmnet_lidar_pairs.pt"), icp, conf);
   const ObmNetIcpMatcher refined(netParams(kModels + "obmnet_lidar_pairs.pt"), icp, conf);
   // Both sweeps turned apart by 120° about z: the identity is no prior any more.
@@ -136,15 +151,10 @@ TEST(ModelAccuracy, SmallLidarModelOnRealKittiSweepsFiveApart) {
   OBM_REQUIRE_SHARED_DATA("kitti/raw_drive_22/velodyne/000021.bin");
   const std::string d = test::sharedDataDir() + "/kitti/raw_drive_22/velodyne/";
   auto sweep = [&](std::size_t i) {
-    return voxelDownsample(cropRange(io::readKittiVelodyne(d + io::kittiScanFileName(i)), 2.0, 50.0),
-                           0.3);
+    return lidarCloud(io::readKittiVelodyne(d + io::kittiScanFileName(i)));
   };
-  IcpParams icp;
-  icp.max_correspondence_distance = 1.0;
-  icp.initial_max_correspondence_distance = 1.0;
-  icp.kernel_scale = 0.2;
-  ConfidenceParams conf;
-  conf.inlier_threshold = 0.3;
+  const IcpParams icp = lidarIcp();
+  const ConfidenceParams conf = lidarConfidence();
   const IcpMatcher chain_icp(icp, conf);
   const std::string model = kModels + "obmnet_lidar_small.pt";
   const ObmNetMatcher network(netParams(model), icp, conf);

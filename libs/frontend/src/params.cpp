@@ -348,11 +348,8 @@ FrontendParams FrontendParams::load(const ConfigNode& node) {
     const ConfigNode m = node.child("matcher");
     YAML::Node copy = YAML::Clone(m.yaml());
     if (copy.IsMap() && copy["fallback"]) {
-      const std::string name = m.required<std::string>("fallback");
-      p.matcher_fallback = parseMatcherKind(name);
-      if (!p.matcher_fallback)
-        throw ConfigError(m.where("fallback") + ": unknown matcher type '" + name + "' (" +
-                          matcherKindNames() + ")");
+      p.matcher_fallback =
+          parseMatcherKind(m.required<std::string>("fallback"), m.where("fallback"));
       copy.remove("fallback");
     }
     p.matcher = ScanMatcherConfig::load(ConfigNode(copy, m.file(), "matcher"));

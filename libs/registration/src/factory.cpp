@@ -63,16 +63,13 @@ const char* toString(MatcherKind kind) {
   return "unknown";
 }
 
-std::optional<MatcherKind> parseMatcherKind(const std::string& name) {
-  for (const MatcherKind k : kKinds)
+MatcherKind parseMatcherKind(const std::string& name, const std::string& where) {
+  std::string names;
+  for (const MatcherKind k : kKinds) {
     if (name == toString(k)) return k;
-  return std::nullopt;
-}
-
-std::string matcherKindNames() {
-  std::string out;
-  for (const MatcherKind k : kKinds) out += (out.empty() ? "" : ", ") + std::string(toString(k));
-  return out;
+    names += (names.empty() ? "" : ", ") + std::string(toString(k));
+  }
+  throw ConfigError(where + ": unknown matcher type '" + name + "' (" + names + ")");
 }
 
 ScanMatcherConfig ScanMatcherConfig::load(const ConfigNode& node) {
@@ -80,11 +77,7 @@ ScanMatcherConfig ScanMatcherConfig::load(const ConfigNode& node) {
   node.checkKeys({"type", "icp", "obmnet", "confidence"});
   std::string type = toString(c.type);
   node.get("type", type);
-  const std::optional<MatcherKind> kind = parseMatcherKind(type);
-  if (!kind)
-    throw ConfigError(node.where("type") + ": unknown matcher type '" + type + "' (" +
-                      matcherKindNames() + ")");
-  c.type = *kind;
+  c.type = parseMatcherKind(type, node.where("type"));
   c.icp = IcpParams::load(node.child("icp"));
   c.confidence = ConfidenceParams::load(node.child("confidence"));
   if (usesNetwork(c.type)) {

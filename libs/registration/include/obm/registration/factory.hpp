@@ -9,7 +9,6 @@
 /// \endcode
 /// See config/registration/*.yaml for every key with its default.
 #include <memory>
-#include <optional>
 #include <string>
 
 #include "obm/registration/obmnet_matcher.hpp"
@@ -30,10 +29,9 @@ enum class MatcherKind {
 
 /// The YAML name of `kind` ("icp", "obmnet", "obmnet+icp", "obmm+icp").
 const char* toString(MatcherKind kind);
-/// The kind `name` names; std::nullopt when it names none.
-std::optional<MatcherKind> parseMatcherKind(const std::string& name);
-/// Every name, for error messages: "icp, obmnet, obmnet+icp, obmm+icp".
-std::string matcherKindNames();
+/// The kind `name` names. Throws ConfigError "`where`: unknown matcher type 'name' (icp, obmnet,
+/// obmnet+icp, obmm+icp)" when it names none (`where`: the key or option, e.g. node.where("type")).
+MatcherKind parseMatcherKind(const std::string& name, const std::string& where);
 /// Whether the matcher runs the network (and needs a model file).
 inline bool usesNetwork(MatcherKind kind) { return kind != MatcherKind::Icp; }
 
