@@ -200,7 +200,8 @@ keyframes: {distance: 3.0, rotation_deg: 15, revisit_radius: 5}
 local_map: {keyframes: 8, voxel: 0.25, radius: 70}
 tracking: {icp: {max_correspondence_distance: 0.8}, min_quality: 0.2,
            max_correction_rotation_deg: 6, floor_sigma_rotation_deg: 0.1}
-loop_closure: {min_travel: 40, loss: "cauchy:2", descriptor: {rings: 10, sectors: 30}}
+loop_closure: {min_travel: 40, loss: "cauchy:2", descriptor: {rings: 10, sectors: 30},
+               relocalisation: {confirmations: 3, agreement_rotation_deg: 4}}
 matcher: {type: icp, fallback: icp, icp: {initial_max_correspondence_distance: 3.0}}
 optimizer: {init: file, max_iterations: 20}
 )",
@@ -218,6 +219,8 @@ optimizer: {init: file, max_iterations: 20}
   EXPECT_EQ(p.loop_closure.loss.kind, backend::LossKind::Cauchy);
   EXPECT_DOUBLE_EQ(p.loop_closure.loss.scale, 2.0);
   EXPECT_EQ(p.loop_closure.descriptor.sectors, 30);
+  EXPECT_EQ(p.loop_closure.relocalisation.confirmations, 3u);
+  EXPECT_DOUBLE_EQ(p.loop_closure.relocalisation.agreement_rotation, 4.0 * kDegToRad);
   EXPECT_EQ(p.matcher.type, MatcherKind::Icp);
   EXPECT_EQ(p.matcher_fallback, MatcherKind::Icp);
   EXPECT_DOUBLE_EQ(p.matcher.icp.initial_max_correspondence_distance, 3.0);
@@ -240,6 +243,9 @@ optimizer: {init: file, max_iterations: 20}
   expectError("loop_closure: {loss: \"square:1\"}", "loop_closure.loss");
   expectError("loop_closure: {descriptor: {sectors: 2}}", "sectors");
   expectError("matcher: {type: sift}", "matcher.type");
+  expectError("loop_closure: {relocalisation: {confirmation: 2}}",
+              "loop_closure.relocalisation.confirmation");
+  expectError("loop_closure: {relocalisation: {confirmations: 0}}", "confirmations");
   expectError("matcher: {type: icp, fallback: sift}", "matcher.fallback");
   expectError("loop_closure: {max_correction_rotation_deg: -1}", "max_correction_rotation_deg");
   expectError("local_map: {keyframes: 0}", "keyframes");

@@ -722,6 +722,15 @@ void Optimizer::addNode(NodeId id, const Isometry3d& T_world_node) {
   if (impl_->problem) impl_->addBlock(id);
 }
 
+void Optimizer::setPose(NodeId id, const Isometry3d& T_world_node) {
+  auto& g = impl_->graph;
+  OBM_ASSERT(g.is3D(), "setPose(Isometry3d) on a 2D graph");
+  const auto it = g.nodes3.find(id);
+  OBM_ASSERT(it != g.nodes3.end(), "node " + std::to_string(id) + " does not exist");
+  OBM_ASSERT(T_world_node.matrix().allFinite(), "node " + std::to_string(id) + ": non-finite pose");
+  it->second.T_world_node = Pose3::fromIsometry(T_world_node);
+}
+
 void Optimizer::addNode(NodeId id, const Pose2& T_world_node) {
   auto& g = impl_->graph;
   if (g.numNodes() == 0 && g.numEdges() == 0) g.dimension = 2;

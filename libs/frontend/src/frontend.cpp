@@ -16,6 +16,7 @@
 #include "obm/frontend/motion_model.hpp"
 #include "obm/registration/obmnet_matcher.hpp"
 #include "recovery.hpp"
+#include "relocaliser.hpp"
 #include "tracker.hpp"
 
 namespace obm::frontend {
@@ -94,6 +95,7 @@ struct Frontend::Impl {
   Recovery recovery;        // the steps after a rejected tracking match
   LocalMap local_map;       // the newest keyframes' clouds, rebuilt asynchronously
   LoopCloser loop_closer;   // candidates, verification, loop edges
+  Relocaliser relocaliser;  // a piece after a restart, back onto the map
 
   std::vector<Keyframe> keyframes;
   std::vector<FrameRecord> frames;
@@ -116,7 +118,8 @@ struct Frontend::Impl {
         tracker(p.tracking),
         recovery(p.tracking, tracker.wideGate(), *matcher),
         local_map(p.local_map, tracker.icp().icpParams().targetOptions()),
-        loop_closer(p.loop_closure, p.local_map.voxel, *matcher) {}
+        loop_closer(p.loop_closure, p.local_map.voxel, *matcher),
+        relocaliser(p.loop_closure.relocalisation, loop_closer) {}
 
   // ---------------------------------------------------------------------------------------
   FrameResult process(const PointCloud& sweep) {
@@ -306,6 +309,8 @@ struct Frontend::Impl {
     ++stats.restarts;
     local_map.restartAt(keyframes.size());
     tracker.forgetRecentInliers();
+    if (p.loop_closure.enabled && p.loop_closure.use_descriptor)
+      relocaliser.startPiece(keyframes.size());
     addKeyframe(fr.index, timestamp, T, cropped, nullptr, true);
     fr.keyframe = true;
     fr.restarted = true;
@@ -372,10 +377,39 @@ struct Frontend::Impl {
       dropIfRevisit(keyframes[keyframes.size() - 1 - p.local_map.keyframes]);
   }
 
+  /// The keyframes since the restart, relocalised onto the map: moved there (in the front-end and
+  /// in the optimiser, whose next solve starts from the moved poses), joined by the verified loop
+  /// edges, and the graph optimised; the bridge edge into the piece takes the correction.
+  void joinPiece(std::size_t first, const Relocaliser::Join& join) {
+    for (std::size_t i = first; i < keyframes.size(); ++i) {
+      Keyframe& kf = keyframes[i];
+      kf.T_world_sensor = join.T_map_piece * kf.T_world_sensor;
+      optimizer.setPose(static_cast<backend::NodeId>(kf.id), kf.T_world_sensor);
+    }
+    T_world_current = join.T_map_piece * T_world_current;
+    motion.applyCorrection(join.T_map_piece);
+    {
+      ScopedStage s(times, "graph");
+      for (const auto& [lc, r] : join.loops) {
+        backend::Edge3 e;
+        e.from = static_cast<backend::NodeId>(lc.from);
+        e.to = static_cast<backend::NodeId>(lc.to);
+        e.T_from_to = backend::Pose3::fromIsometry(r.T_target_source);
+        e.information = loopEdgeInformation(p.loop_closure, r);
+        e.loss = p.loop_closure.loss;
+        e.is_loop = true;
+        optimizer.addEdge(e);
+      }
+    }
+    optimize();
+  }
+
   /// The keyframe that just left the local map drops its cloud when an older keyframe of an
   /// earlier pass, still holding its own, lies within revisit_radius (current estimates).
   void dropIfRevisit(Keyframe& kf) {
     if (kf.dropped) return;
+    // A piece not yet relocalised is at an unknown place: its "revisits" are not.
+    if (const auto first = relocaliser.pieceStart(); first && kf.id >= *first) return;
     const double r2 = p.keyframes.revisit_radius * p.keyframes.revisit_radius;
     for (std::size_t j = 0; j < kf.id; ++j) {
       const Keyframe& old = keyframes[j];
@@ -393,6 +427,12 @@ struct Frontend::Impl {
   /// The loop closer searches the newest keyframe; an accepted loop is followed by an
   /// optimisation of the pose graph. Returns how many loops were accepted.
   std::size_t closeLoops() {
+    if (const std::optional<std::size_t> first = relocaliser.pieceStart()) {
+      if (const auto join = relocaliser.search(keyframes, loops, stats, times)) {
+        joinPiece(*first, *join);
+        return join->loops.size();
+      }
+    }
     const std::size_t accepted = loop_closer.search(keyframes, loops, optimizer, stats, times);
     if (accepted > 0) optimize();
     return accepted;

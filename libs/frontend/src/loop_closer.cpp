@@ -107,11 +107,17 @@ std::vector<std::pair<double, std::size_t>> LoopCloser::candidates(
 
 MatchResult LoopCloser::verify(LoopClosure& lc, const std::vector<Keyframe>& keyframes,
                                StageTimes& times) const {
+  const Isometry3d T_init =
+      keyframes[lc.from].T_world_sensor.inverse() * keyframes[lc.to].T_world_sensor;
+  return verifyFrom(lc, keyframes, T_init, times);
+}
+
+MatchResult LoopCloser::verifyFrom(LoopClosure& lc, const std::vector<Keyframe>& keyframes,
+                                   const Isometry3d& T_init, StageTimes& times) const {
   const LoopClosureParams& lp = params_;
   const Keyframe& cur = keyframes[lc.to];
   const Keyframe& cand = keyframes[lc.from];
   MatchResult r;
-  const Isometry3d T_init = cand.T_world_sensor.inverse() * cur.T_world_sensor;
   {
     ScopedStage s(times, verifyStage());
     // Target: the candidate and its neighbours, in the candidate's frame.

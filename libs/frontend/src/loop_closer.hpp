@@ -34,15 +34,19 @@ class LoopCloser {
   /// The timing stage of the verification (matcherStage: "obmnet" or "loop_icp").
   const char* verifyStage() const { return matcherStage(matcher_); }
 
+  /// Registers keyframe lc.to against the submap of keyframe lc.from (it and submap_keyframes
+  /// neighbours, but not the recent past) from `T_init` (= T_from_to's guess); fills the pose,
+  /// quality and inlier ratio of `lc`, and its correction of `T_init`.
+  MatchResult verifyFrom(LoopClosure& lc, const std::vector<Keyframe>& keyframes,
+                         const Isometry3d& T_init, StageTimes& times) const;
+
  private:
   /// Earlier keyframes at least min_travel behind keyframe `k` along the path and within
   /// min(max_search_radius, search_radius + search_radius_per_m · travelled) of it, as
   /// (distance, keyframe), nearest first (stage "loop_search").
   std::vector<std::pair<double, std::size_t>> candidates(const std::vector<Keyframe>& keyframes,
                                                          std::size_t k, StageTimes& times) const;
-  /// Registers keyframe lc.to against the submap of keyframe lc.from (it and submap_keyframes
-  /// neighbours, but not the recent past) from the current estimate; fills the pose, quality,
-  /// inlier ratio and correction of `lc`.
+  /// verifyFrom the current estimate of the relative pose.
   MatchResult verify(LoopClosure& lc, const std::vector<Keyframe>& keyframes,
                      StageTimes& times) const;
   /// Why the verified match is not a loop closure ("" when it is).

@@ -248,6 +248,20 @@ DescriptorParams DescriptorParams::load(const ConfigNode& node) {
 
 // --- loop closure ----------------------------------------------------------------------------
 
+void RelocalisationParams::validate() const {
+  require(max_descriptor_distance >= 0.0 && max_descriptor_distance <= 1.0,
+          "max_descriptor_distance", "must be in [0, 1]");
+  require(max_candidates >= 1, "max_candidates", "must be >= 1");
+  require(min_quality >= 0.0 && min_quality <= 1.0, "min_quality", "must be in [0, 1]");
+  require(min_inlier_ratio >= 0.0 && min_inlier_ratio <= 1.0, "min_inlier_ratio",
+          "must be in [0, 1]");
+  require(confirmations >= 1, "confirmations", "must be >= 1");
+  require(finite(agreement_translation) && agreement_translation > 0.0, "agreement_translation",
+          "must be > 0 [m]");
+  require(finite(agreement_rotation) && agreement_rotation > 0.0, "agreement_rotation_deg",
+          "must be > 0 [deg]");
+}
+
 void LoopClosureParams::validate() const {
   require(finite(min_travel) && min_travel > 0.0, "min_travel", "must be > 0 [m]");
   require(finite(search_radius) && search_radius > 0.0, "search_radius", "must be > 0 [m]");
@@ -280,6 +294,24 @@ void LoopClosureParams::validate() const {
   require(dcs_auto || (finite(loss.scale) && loss.scale > 0.0), "loss",
           "scale must be > 0 (or dcs:auto)");
   descriptor.validate();
+  relocalisation.validate();
+}
+
+RelocalisationParams RelocalisationParams::load(const ConfigNode& node) {
+  node.checkKeys({"enabled", "max_descriptor_distance", "max_candidates", "min_quality",
+                  "min_inlier_ratio", "confirmations", "agreement_translation",
+                  "agreement_rotation_deg"});
+  RelocalisationParams p;
+  node.get("enabled", p.enabled);
+  node.get("max_descriptor_distance", p.max_descriptor_distance);
+  node.get("max_candidates", p.max_candidates);
+  node.get("min_quality", p.min_quality);
+  node.get("min_inlier_ratio", p.min_inlier_ratio);
+  node.get("confirmations", p.confirmations);
+  node.get("agreement_translation", p.agreement_translation);
+  node.getDegAsRad("agreement_rotation_deg", p.agreement_rotation);
+  validateAt(node, [&] { p.validate(); });
+  return p;
 }
 
 LoopClosureParams LoopClosureParams::load(const ConfigNode& node) {
@@ -288,7 +320,8 @@ LoopClosureParams LoopClosureParams::load(const ConfigNode& node) {
                   "submap_keyframes", "use_descriptor", "max_descriptor_distance", "min_quality",
                   "min_inlier_ratio", "max_correction", "max_correction_rotation_deg",
                   "correction_rotation_per_m_deg", "information_scale",
-                  "floor_sigma_translation", "floor_sigma_rotation_deg", "loss", "descriptor"});
+                  "floor_sigma_translation", "floor_sigma_rotation_deg", "loss", "descriptor",
+                  "relocalisation"});
   LoopClosureParams p;
   node.get("enabled", p.enabled);
   node.get("min_travel", p.min_travel);
@@ -317,6 +350,7 @@ LoopClosureParams LoopClosureParams::load(const ConfigNode& node) {
     }
   }
   p.descriptor = DescriptorParams::load(node.child("descriptor"));
+  p.relocalisation = RelocalisationParams::load(node.child("relocalisation"));
   validateAt(node, [&] { p.validate(); });
   return p;
 }

@@ -284,7 +284,7 @@ RunSummary MappingApp::run() {
   {
     std::ostringstream os;
     os << "# from_keyframe,to_keyframe,from_frame,to_frame,accepted,quality,inlier_ratio,"
-          "descriptor_distance,correction_m,tx,ty,tz,qx,qy,qz,qw,reason\n";
+          "descriptor_distance,correction_m,tx,ty,tz,qx,qy,qz,qw,relocalisation,reason\n";
     for (const auto& lc : fe.loops()) {
       const Eigen::Quaterniond q(lc.T_from_to.linear());
       const Eigen::Vector3d t = lc.T_from_to.translation();
@@ -292,7 +292,8 @@ RunSummary MappingApp::run() {
          << fe.keyframes()[lc.to].frame_index << ',' << (lc.accepted ? 1 : 0) << ',' << lc.quality
          << ',' << lc.inlier_ratio << ',' << lc.descriptor_distance << ',' << lc.correction << ','
          << t.x() << ',' << t.y() << ',' << t.z() << ',' << q.x() << ',' << q.y() << ',' << q.z()
-         << ',' << q.w() << ",\"" << csvQuoted(lc.reason) << "\"\n";
+         << ',' << q.w() << ',' << (lc.relocalisation ? 1 : 0) << ",\"" << csvQuoted(lc.reason)
+         << "\"\n";
     }
     writeTextAtomically(file("loops.csv"), os.str());
   }
@@ -354,6 +355,7 @@ RunSummary MappingApp::run() {
     j["frames"] = n;
     j["keyframes"] = st.keyframes;
     j["keyframes_dropped"] = st.keyframes_dropped;
+    j["relocalisations"] = st.relocalisations;
     j["frames_tracked"] = st.tracked;
     j["frames_recovered"] = st.recovered;
     j["frames_bridged"] = st.bridged;
@@ -474,7 +476,8 @@ std::string formatSummary(const RunSummary& s) {
   os << "matcher         " << s.matcher << "\n";
   os << "keyframes       " << s.stats.keyframes << "\n";
   os << "frames          " << s.stats.tracked << " tracked, " << s.stats.recovered << " recovered, "
-     << s.stats.bridged << " bridged, " << s.stats.restarts << " local-map restarts\n";
+     << s.stats.bridged << " bridged, " << s.stats.restarts << " local-map restarts ("
+     << s.stats.relocalisations << " relocalised)\n";
   os << "loop closures   " << s.stats.loops_accepted << " accepted, " << s.stats.loops_rejected
      << " rejected (" << s.stats.loop_searches << " searches)\n";
   if (s.metrics) {

@@ -107,6 +107,9 @@ class Optimizer {
   /// Adds an edge between existing nodes; throws ContractError otherwise or on a non-PSD Ω.
   void addEdge(const Edge3& edge);
   void addEdge(const Edge2& edge);
+  /// Replaces a node's current pose (3D graph), e.g. to move a piece of the graph that was
+  /// relocalised; the next optimize() starts from it. Throws ContractError if absent.
+  void setPose(NodeId id, const Isometry3d& T_world_node);
   /// Holds a node constant (or releases it).
   void setFixed(NodeId id, bool fixed = true);
   /// Called after each LM iteration (e.g. for a progress line); may be empty.

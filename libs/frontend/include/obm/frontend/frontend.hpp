@@ -84,6 +84,9 @@ struct LoopClosure {
   double correction = 0.0;  ///< [m] distance between the verified pose and the current estimate
   double correction_rotation = 0.0;  ///< [rad] rotation between the verified pose and the estimate
   bool accepted = false;
+  /// Found by relocalisation (place recognition over the whole map after the drive was lost), not
+  /// by the proximity search around the estimate.
+  bool relocalisation = false;
   std::string reason;  ///< why it was rejected ("" when accepted)
 };
 
@@ -102,6 +105,8 @@ struct FrontendStats {
   std::size_t loops_rejected = 0;
   std::size_t optimizations = 0;
   std::size_t keyframes_dropped = 0;  ///< keyframes whose cloud was dropped on a revisit
+  /// Pieces of the drive after a local-map restart moved onto the map by relocalisation.
+  std::size_t relocalisations = 0;
 };
 
 /// Which matcher the front-end uses for loop verification and recovery.

@@ -185,6 +185,34 @@ struct DescriptorParams {
   void validate() const;
 };
 
+/// Relocalisation after a local-map restart (YAML `loop_closure.relocalisation:`). Once the
+/// front-end has lost the drive (a run of bridged frames), the keyframes since the restart form a
+/// piece whose place in the world is unknown: the estimate may be tens of metres and degrees off,
+/// so the proximity search of loop closure cannot find revisits. Each new keyframe of the piece is
+/// compared by its place descriptor with every keyframe of the map before it; the closest are
+/// verified by the scan matcher from the descriptor's yaw alone, and when `confirmations`
+/// keyframes of the piece in a row agree on one correction, the piece is moved by it and joined to
+/// the map by loop edges.
+struct RelocalisationParams {
+  bool enabled = true;
+  /// [0, 1] candidates must be at least this similar (cosine distance of the descriptors); a
+  /// revisit seen from the same lane is typically < 0.15, a different street > 0.3.
+  double max_descriptor_distance = 0.25;
+  std::size_t max_candidates = 3;  ///< candidates verified per keyframe (most similar first)
+  double min_quality = 0.6;        ///< verified match: quality at least this [0, 1]
+  double min_inlier_ratio = 0.6;   ///< verified match: inlier ratio at least this [0, 1]
+  /// Keyframes of the piece in a row whose verified matches must agree on the correction
+  /// before the piece is moved (1 = the first match moves it). Repeated blocks of a city can
+  /// match one keyframe well at the wrong place; they rarely give the same wrong correction
+  /// twice.
+  std::size_t confirmations = 2;
+  double agreement_translation = 1.0;             ///< [m] corrections agree within this ...
+  double agreement_rotation = 2.0 * kDegToRad;    ///< [rad] (YAML `_deg`) ... and this
+
+  static RelocalisationParams load(const ConfigNode& node);
+  void validate() const;
+};
+
 /// Loop closure (YAML `loop_closure:`): candidates near the current keyframe in the current
 /// estimate but far back along the trajectory, verified by the scan matcher.
 struct LoopClosureParams {
@@ -222,6 +250,7 @@ struct LoopClosureParams {
   /// odometry information does not model, keeps its weight; a wrong one (χ² ~10⁷) is switched off.
   backend::EdgeLoss loss{backend::LossKind::Dcs, 1000.0};
   DescriptorParams descriptor;
+  RelocalisationParams relocalisation;
 
   static LoopClosureParams load(const ConfigNode& node);
   void validate() const;
