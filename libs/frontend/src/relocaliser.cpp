@@ -112,7 +112,9 @@ std::optional<Relocaliser::Join> Relocaliser::search(const std::vector<Keyframe>
     // The other keyframes of the piece that put it at the same place.
     std::vector<const Hypothesis*> agreeing;
     for (const Hypothesis& o : recent_) {
-      if (o.lc.to == k || !agree(o.T_map_piece, h.T_map_piece)) continue;
+      // Another keyframe of the piece, matched onto another keyframe of the map (two keyframes
+      // matched onto one place are one piece of evidence), at the same place.
+      if (o.lc.to == k || o.lc.from == h.lc.from || !agree(o.T_map_piece, h.T_map_piece)) continue;
       const bool same_keyframe = std::any_of(agreeing.begin(), agreeing.end(),
                                              [&](const Hypothesis* a) { return a->lc.to == o.lc.to; });
       if (!same_keyframe) agreeing.push_back(&o);

@@ -199,12 +199,15 @@ struct RelocalisationParams {
   /// revisit seen from the same lane is typically < 0.15, a different street > 0.3.
   double max_descriptor_distance = 0.25;
   std::size_t max_candidates = 3;  ///< candidates verified per keyframe (most similar first)
-  double min_quality = 0.6;        ///< verified match: quality at least this [0, 1]
-  double min_inlier_ratio = 0.6;   ///< verified match: inlier ratio at least this [0, 1]
-  /// Keyframes of the piece in a row whose verified matches must agree on the correction
-  /// before the piece is moved (1 = the first match moves it). Repeated blocks of a city can
-  /// match one keyframe well at the wrong place; they rarely give the same wrong correction
-  /// twice.
+  /// Verified match: quality and inlier ratio at least these [0, 1]. Stricter than a proximity
+  /// loop's: no estimate backs the match up. A street seen from its other end, at the wrong block,
+  /// pairs 0.6–0.75 of the points at 180°; a re-observation of the place pairs > 0.95.
+  double min_quality = 0.85;
+  double min_inlier_ratio = 0.85;
+  /// Keyframes of the piece (within the last 2 × confirmations) whose verified matches, each
+  /// onto a different keyframe of the map, must agree on the correction before the piece is moved
+  /// (1 = the first match moves it). Repeated blocks of a city can match one keyframe well at the
+  /// wrong place; two places rarely give the same wrong correction.
   std::size_t confirmations = 2;
   double agreement_translation = 1.0;             ///< [m] corrections agree within this ...
   double agreement_rotation = 2.0 * kDegToRad;    ///< [rad] (YAML `_deg`) ... and this
