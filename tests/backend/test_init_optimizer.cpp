@@ -223,6 +223,52 @@ TEST(Optimizer, IncrementalMatchesBatch) {
   EXPECT_LT(absoluteTrajectoryError(inc.graph(), batch).rmse, 1e-4);
 }
 
+TEST(Optimizer, SetPoseMovesAPieceTheRobustLossWouldNotReach) {
+  // Node 0 fixed, 0 -> 1 a strong odometry edge, 1 -> 2 a weak bridge (sigma 1 m, 5 deg), then a
+  // strong loop 0 -> 2 that puts node 2 40 m from where the chain has it. With the DCS loss a
+  // residual of 40 m at the start switches the loop off; moved there with setPose first, the
+  // solve starts at the loop's answer and the weak bridge takes the correction.
+  auto edge = [](NodeId from, NodeId to, const Eigen::Vector3d& t, double sigma_t, double sigma_r,
+                 bool loop) {
+    Edge3 e;
+    e.from = from;
+    e.to = to;
+    e.T_from_to = Pose3(t, Eigen::Quaterniond::Identity());
+    Vector6d d;
+    d << 1 / (sigma_t * sigma_t), 1 / (sigma_t * sigma_t), 1 / (sigma_t * sigma_t),
+        1 / (sigma_r * sigma_r), 1 / (sigma_r * sigma_r), 1 / (sigma_r * sigma_r);
+    e.information = d.asDiagonal();
+    e.is_loop = loop;
+    if (loop) e.loss = EdgeLoss{LossKind::Dcs, 1000.0};
+    return e;
+  };
+  auto run = [&](bool set_pose) {
+    Options o;
+    o.init = InitMethod::File;
+    Optimizer opt(o);
+    const Isometry3d I = Isometry3d::Identity();
+    opt.addNode(0, I);
+    opt.addNode(1, Isometry3d(Eigen::Translation3d(1, 0, 0)));
+    opt.addNode(2, Isometry3d(Eigen::Translation3d(2, 0, 0)));
+    opt.setFixed(0);
+    opt.addEdge(edge(0, 1, {1, 0, 0}, 0.01, 0.001, false));
+    opt.addEdge(edge(1, 2, {1, 0, 0}, 1.0, 5.0 * kDegToRad, false));
+    opt.optimize();
+    opt.addEdge(edge(0, 2, {42, 0, 0}, 0.02, 0.001, true));
+    if (set_pose) {
+      opt.setPose(2, Isometry3d(Eigen::Translation3d(42, 0, 0)));
+      EXPECT_NEAR(opt.pose(2).translation().x(), 42.0, 1e-12);
+    }
+    opt.optimize();
+    return opt.pose(2).translation().x();
+  };
+  EXPECT_NEAR(run(true), 42.0, 0.05);  // the bridge pulls back 40 m · 0.02² / 1² = 0.016 m
+  EXPECT_LT(run(false), 10.0);
+  Optimizer empty;
+  empty.addNode(0, Isometry3d::Identity());
+  EXPECT_THROW(empty.setPose(7, Isometry3d::Identity()), ContractError);
+}
+
 TEST(Optimizer, RobustModeRejectsWrongLoops) {
   for (int dim : {2, 3}) {
     auto syn =
