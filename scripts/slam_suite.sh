@@ -17,6 +17,8 @@
 #                leaves the turn, and up to 60 m of street, unseen
 #   revisits     urban_revisits (seed S): streets driven again in the opposite direction, from the
 #                other lane 4 m across, and crossed at 90°
+#   revisit_gaps the revisits drive with 4, 5 and 6 s lost in its three sharpest turns (the time
+#                stamps show the gaps): the drive is lost and must be found again on the revisits
 #   offset_revisits  config/sim/suite_offset_revisits.yaml: the same route on 22 m wide avenues,
 #                driven 4.5 m right of the centre line: the opposite passes 9 m across
 # Each sequence is run with `--matcher icp` and with the configuration's matcher (obmnet+icp), and
@@ -40,14 +42,14 @@ set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 BUILD=$ROOT/build
 CFG=$ROOT/config/map_kitti.yaml
-ONLY=corridor,open_road,urban,turn_gaps,turn_jumps,long_gaps,revisits,offset_revisits
+ONLY=corridor,open_road,urban,turn_gaps,turn_jumps,long_gaps,revisits,revisit_gaps,offset_revisits
 SEED=5
 NICE=5
 RESUME=0
 SETS=()
 MODELS=()
 
-usage() { sed -n '2,37p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,39p' "$0" | sed 's/^# \{0,1\}//'; }
 POS=()
 while [[ $# -gt 0 ]]; do
   case $1 in
@@ -158,9 +160,16 @@ if want urban || want turn_gaps || want turn_jumps || want long_gaps; then
   want turn_jumps && both turn_jumps "$DATA/turn_jumps"
   want long_gaps && both long_gaps "$DATA/long_gaps"
 fi
-if want revisits; then
+if want revisits || want revisit_gaps; then
   simulate revisits -p urban_revisits -s "$SEED"
-  both revisits "$DATA/revisits"
+  want revisits && both revisits "$DATA/revisits"
+  if want revisit_gaps && [[ ! -f $DATA/revisit_gaps/times.txt ]]; then
+    read -r r1 r2 r3 <<< "$(turn_frames "$DATA/revisits" 3)"
+    rm -rf "$DATA/revisit_gaps"
+    python3 "$ROOT/scripts/drop_sweeps.py" "$DATA/revisits" "$DATA/revisit_gaps" \
+      --drop "$r1:40" "$r2:50" "$r3:60"
+  fi
+  want revisit_gaps && both revisit_gaps "$DATA/revisit_gaps"
 fi
 if want offset_revisits; then
   simulate offset_revisits -c "$ROOT/config/sim/suite_offset_revisits.yaml"
