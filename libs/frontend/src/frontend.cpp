@@ -102,6 +102,7 @@ struct Frontend::Impl {
   std::vector<LoopClosure> loops;
   std::size_t frames_since_keyframe = 0;
   std::size_t bridge_run = 0;
+  bool jumped_last_frame = false;  // the last frame's recovery was taken as a jump
   Isometry3d T_world_current = Isometry3d::Identity();
   double travelled = 0.0;
   bool finished = false;
@@ -249,13 +250,19 @@ struct Frontend::Impl {
   /// holds, so the history moves with the correction instead of absorbing it. (Before there is a
   /// velocity the guess is the last pose, and the correction is the motion itself.)
   void correctMotion(const Isometry3d& T_guess, const Isometry3d& T, TrackingStatus status) {
+    const bool jumped_before = jumped_last_frame;
+    jumped_last_frame = false;
     if (const std::optional<JumpCandidate> jump = recovery.takeConfirmedJump()) {
       applyConfirmedJump(*jump);
     } else if (status == TrackingStatus::Recovered && motion.count() >= 2) {
       const Isometry3d d = T_guess.inverse() * T;
       if (d.translation().norm() > p.tracking.max_correction ||
-          rotationAngle(d.linear()) > p.tracking.max_correction_rotation)
-        motion.applyCorrection(T * T_guess.inverse());
+          rotationAngle(d.linear()) > p.tracking.max_correction_rotation) {
+        jumped_last_frame = true;
+        // A second jump in a row: the velocity is wrong; the update below re-estimates it.
+        if (!(jumped_before && p.tracking.recovery_repeated_jump_is_velocity))
+          motion.applyCorrection(T * T_guess.inverse());
+      }
     }
   }
 

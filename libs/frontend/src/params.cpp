@@ -164,6 +164,7 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
                   "recovery_agreement_translation",
                   "recovery_agreement_rotation_deg",
                   "recovery_confirm_jumps",
+                  "recovery_repeated_jump_is_velocity",
                   "recovery_confirmed_relative_inlier_ratio",
                   "recovery_gap_rotation",
                   "recovery_large_turn_relative_inlier_ratio",
@@ -194,6 +195,7 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
   node.get("recovery_agreement_translation", p.recovery_agreement_translation);
   node.getDegAsRad("recovery_agreement_rotation_deg", p.recovery_agreement_rotation);
   node.get("recovery_confirm_jumps", p.recovery_confirm_jumps);
+  node.get("recovery_repeated_jump_is_velocity", p.recovery_repeated_jump_is_velocity);
   node.get("recovery_confirmed_relative_inlier_ratio", p.recovery_confirmed_relative_inlier_ratio);
   node.get("recovery_gap_rotation", p.recovery_gap_rotation);
   node.get("recovery_large_turn_relative_inlier_ratio",

@@ -116,6 +116,13 @@ struct TrackingParams {
   /// recovery_agreement_translation / _rotation), and the candidate sweep, bridged meanwhile, is
   /// moved to its registered pose. Needs recovery_agreement_translation > 0.
   bool recovery_confirm_jumps = false;
+  /// A recovery beyond max_correction is taken as a jump (lost sweeps): the history moves with
+  /// it and the velocity before it is kept. When the frame before was such a jump too, the guess
+  /// is off every frame: the velocity itself is wrong (extrapolated over a gap, a turn rate kept
+  /// after the turn ended), and it is re-estimated from the recovered poses instead. Without it a
+  /// wrong velocity after a local-map restart is corrected anew at every frame, no frame is
+  /// tracked, and the local map never grows.
+  bool recovery_repeated_jump_is_velocity = false;
   /// A recovery taken on a confirmation (the second opinion, a confirmed jump) still needs this
   /// share of the recent inlier ratio: two registrations from the same guess can agree on the
   /// same wrong pose (metres along a straight street). [0, 1]
