@@ -316,7 +316,8 @@ struct Frontend::Impl {
     ++stats.restarts;
     local_map.restartAt(keyframes.size());
     tracker.forgetRecentInliers();
-    if (p.loop_closure.enabled && p.loop_closure.use_descriptor)
+    if (p.loop_closure.enabled && p.loop_closure.use_descriptor &&
+        p.loop_closure.relocalisation.enabled)
       relocaliser.startPiece(keyframes.size());
     addKeyframe(fr.index, timestamp, T, cropped, nullptr, true);
     fr.keyframe = true;
