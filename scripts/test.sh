@@ -2,7 +2,7 @@
 # The test command: installs missing packages, configures, builds (incrementally) and runs every
 # test with ctest. Reference data is read from ../shared/data (or $OBM_SHARED_DATA) when present.
 #   scripts/test.sh                # Release build in ./build
-#   scripts/test.sh --sanitize     # AddressSanitizer + UBSan build in ./build-asan (unit tests only)
+#   scripts/test.sh --sanitize     # AddressSanitizer + UBSan build in ./build-asan (unit tests, LibTorch ones included)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
@@ -19,10 +19,10 @@ fi
 
 if [[ "${1:-}" == "--sanitize" ]]; then
   BUILD="$ROOT/build-asan"
-  # Unit tests of every library without LibTorch (the OBMNet-linked tests run in the Release build
-  # above; under the sanitizers they are not yet part of CI).
+  # Unit tests of every library, the LibTorch-linked ones included (the network, its matchers, the
+  # front-end with OBMNet); the apps and their command-line tests run in the Release build.
   "$ROOT/scripts/build.sh" "$BUILD" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DOBM_SANITIZE=ON -DOBM_BUILD_APPS=OFF \
-    -DOBM_WITH_TORCH=OFF
+    -DOBM_WITH_TORCH=ON
   # LibTorch, MRPT and their dependencies are not built with sanitizers: std containers they fill
   # trip ASan's container-overflow annotations (detect_container_overflow=0), and their one-time
   # global allocations are reported as leaks (suppressed by library name in .ci/lsan.supp). Nothing
