@@ -398,16 +398,7 @@ struct Frontend::Impl {
     motion.applyCorrection(join.T_map_piece);
     {
       ScopedStage s(times, "graph");
-      for (const auto& [lc, r] : join.loops) {
-        backend::Edge3 e;
-        e.from = static_cast<backend::NodeId>(lc.from);
-        e.to = static_cast<backend::NodeId>(lc.to);
-        e.T_from_to = backend::Pose3::fromIsometry(r.T_target_source);
-        e.information = loopEdgeInformation(p.loop_closure, r);
-        e.loss = p.loop_closure.loss;
-        e.is_loop = true;
-        optimizer.addEdge(e);
-      }
+      for (const auto& [lc, r] : join.loops) optimizer.addEdge(loopEdge(p.loop_closure, lc, r));
     }
     optimize();
   }

@@ -13,6 +13,33 @@ namespace {
 constexpr const char* kLog = "frontend";
 }  // namespace
 
+backend::Edge3 loopEdge(const LoopClosureParams& params, const LoopClosure& lc,
+                        const MatchResult& match) {
+  backend::Edge3 e;
+  e.from = static_cast<backend::NodeId>(lc.from);
+  e.to = static_cast<backend::NodeId>(lc.to);
+  e.T_from_to = backend::Pose3::fromIsometry(match.T_target_source);
+  e.information = loopEdgeInformation(params, match);
+  e.loss = params.loss;
+  e.is_loop = true;
+  return e;
+}
+
+std::string matchRejectReason(const MatchResult& r, double min_quality, double min_inlier_ratio) {
+  if (r.status != MatchStatus::Ok && r.status != MatchStatus::NotConverged)
+    return std::string("match status ") + toString(r.status);
+  if (!r.T_target_source.matrix().allFinite()) return "non-finite pose";
+  if (r.quality < min_quality) return "quality " + std::to_string(r.quality);
+  if (r.inlier_ratio < min_inlier_ratio) return "inlier ratio " + std::to_string(r.inlier_ratio);
+  return {};
+}
+
+bool nearTried(const std::vector<std::size_t>& tried, std::size_t j, long window) {
+  return std::any_of(tried.begin(), tried.end(), [&](std::size_t t) {
+    return static_cast<long>(std::max(t, j) - std::min(t, j)) <= window;
+  });
+}
+
 LoopCloser::LoopCloser(const LoopClosureParams& params, double submap_voxel,
                        const ScanMatcher& matcher)
     : params_(params), submap_voxel_(submap_voxel), matcher_(matcher) {}
@@ -32,11 +59,7 @@ std::size_t LoopCloser::search(const std::vector<Keyframe>& keyframes,
   for (const auto& [d, j] : found) {
     if (tried.size() >= lp.max_candidates) break;
     // Candidates next to one already tried would verify against nearly the same submap.
-    bool near_tried = false;
-    for (std::size_t t : tried)
-      if (static_cast<long>(std::max(t, j) - std::min(t, j)) <= lp.submap_keyframes)
-        near_tried = true;
-    if (near_tried) continue;
+    if (nearTried(tried, j, lp.submap_keyframes)) continue;
     tried.push_back(j);
     LoopClosure lc;
     lc.from = j;
@@ -68,14 +91,7 @@ std::size_t LoopCloser::search(const std::vector<Keyframe>& keyframes,
                                                 << r.inlier_ratio << ")");
     {
       ScopedStage s(times, "graph");
-      backend::Edge3 e;
-      e.from = static_cast<backend::NodeId>(lc.from);
-      e.to = static_cast<backend::NodeId>(lc.to);
-      e.T_from_to = backend::Pose3::fromIsometry(r.T_target_source);
-      e.information = loopEdgeInformation(lp, r);
-      e.loss = lp.loss;
-      e.is_loop = true;
-      optimizer.addEdge(e);
+      optimizer.addEdge(loopEdge(lp, lc, r));
     }
     loops.push_back(lc);
     ++accepted;
@@ -153,11 +169,8 @@ std::string LoopCloser::rejectReason(const LoopClosure& lc, const MatchResult& r
       lp.max_correction > 0.0
           ? lp.max_correction
           : std::min(lp.max_search_radius, lp.search_radius + lp.search_radius_per_m * travelled);
-  if (r.status != MatchStatus::Ok && r.status != MatchStatus::NotConverged)
-    return std::string("match status ") + toString(r.status);
-  if (!r.T_target_source.matrix().allFinite()) return "non-finite pose";
-  if (r.quality < lp.min_quality) return "quality " + std::to_string(r.quality);
-  if (r.inlier_ratio < lp.min_inlier_ratio) return "inlier ratio " + std::to_string(r.inlier_ratio);
+  if (std::string why = matchRejectReason(r, lp.min_quality, lp.min_inlier_ratio); !why.empty())
+    return why;
   if (lc.correction > max_corr) return "correction " + std::to_string(lc.correction) + " m";
   if (lp.max_correction_rotation > 0.0) {
     const double max_rot = lp.max_correction_rotation + lp.correction_rotation_per_m * travelled;

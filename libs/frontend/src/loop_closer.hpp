@@ -18,6 +18,20 @@
 
 namespace obm::frontend {
 
+/// The pose-graph edge of an accepted loop: lc.from → lc.to with the match's pose, its information
+/// (loopEdgeInformation) and the robust loss of loop edges.
+backend::Edge3 loopEdge(const LoopClosureParams& params, const LoopClosure& lc,
+                        const MatchResult& match);
+
+/// The tests every verified loop match passes first, in order: a usable status, a finite pose,
+/// quality and inlier ratio at least these. Why it fails ("" when it passes).
+std::string matchRejectReason(const MatchResult& match, double min_quality,
+                              double min_inlier_ratio);
+
+/// True when keyframe `j` is within `window` keyframes of one already `tried` (it would verify
+/// against nearly the same submap).
+bool nearTried(const std::vector<std::size_t>& tried, std::size_t j, long window);
+
 class LoopCloser {
  public:
   /// `submap_voxel`: voxel grid of the candidate's submap (LocalMapParams::voxel); `matcher`
@@ -30,6 +44,9 @@ class LoopCloser {
   /// caller then optimises the graph).
   std::size_t search(const std::vector<Keyframe>& keyframes, std::vector<LoopClosure>& loops,
                      backend::Optimizer& optimizer, FrontendStats& stats, StageTimes& times);
+
+  /// Keyframes on each side of a candidate in its submap (LoopClosureParams::submap_keyframes).
+  int submapKeyframes() const { return params_.submap_keyframes; }
 
   /// The timing stage of the verification (matcherStage: "obmnet" or "loop_icp").
   const char* verifyStage() const { return matcherStage(matcher_); }

@@ -74,10 +74,7 @@ std::optional<Relocaliser::Join> Relocaliser::search(const std::vector<Keyframe>
   for (const Candidate& c : found) {
     if (tried.size() >= params_.max_candidates) break;
     // Neighbours of a candidate already tried verify against nearly the same submap.
-    bool near_tried = false;
-    for (std::size_t t : tried)
-      if (std::max(t, c.id) - std::min(t, c.id) <= 3) near_tried = true;
-    if (near_tried) continue;
+    if (nearTried(tried, c.id, verifier_.submapKeyframes())) continue;
     tried.push_back(c.id);
 
     LoopClosure lc;
@@ -90,15 +87,9 @@ std::optional<Relocaliser::Join> Relocaliser::search(const std::vector<Keyframe>
     // heading, at the candidate's place.
     const Isometry3d T_init(Eigen::AngleAxisd(c.yaw, Eigen::Vector3d::UnitZ()));
     const MatchResult r = verifier_.verifyFrom(lc, keyframes, T_init, times);
-    if (r.status != MatchStatus::Ok && r.status != MatchStatus::NotConverged)
-      lc.reason = std::string("relocalisation: match status ") + toString(r.status);
-    else if (!r.T_target_source.matrix().allFinite())
-      lc.reason = "relocalisation: non-finite pose";
-    else if (r.quality < params_.min_quality)
-      lc.reason = "relocalisation: quality " + std::to_string(r.quality);
-    else if (r.inlier_ratio < params_.min_inlier_ratio)
-      lc.reason = "relocalisation: inlier ratio " + std::to_string(r.inlier_ratio);
-    if (!lc.reason.empty()) {
+    if (std::string why = matchRejectReason(r, params_.min_quality, params_.min_inlier_ratio);
+        !why.empty()) {
+      lc.reason = "relocalisation: " + why;
       ++stats.loops_rejected;
       OBM_LOG_DEBUG(kLog, "relocalisation " << lc.from << " -> " << lc.to << " rejected: "
                                             << lc.reason << " (descriptor " << c.distance << ")");
