@@ -5,6 +5,7 @@ find_package(Threads REQUIRED)
 find_package(yaml-cpp REQUIRED)
 find_package(nlohmann_json 3 REQUIRED)
 find_package(PNG REQUIRED)
+find_package(JPEG REQUIRED)  # colour frames of RGB-D layouts (libjpeg-turbo)
 
 # MRPT 2.x (rawlog, observations)
 find_package(mrpt-obs REQUIRED)

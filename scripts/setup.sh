@@ -12,7 +12,7 @@ PACKAGES=(
   cmake g++ clang libclang-rt-14-dev ninja-build ccache pkg-config git
   # libraries
   libeigen3-dev libmrpt-dev libtorch-dev libceres-dev liboctomap-dev libgtest-dev libgmock-dev
-  libembree-dev libhdf5-dev libnanoflann-dev libyaml-cpp-dev nlohmann-json3-dev libpng-dev libcli11-dev
+  libembree-dev libhdf5-dev libnanoflann-dev libyaml-cpp-dev nlohmann-json3-dev libpng-dev libjpeg-dev libcli11-dev
   libgloo-dev  # headers of LibTorch's c10d Gloo process group (data-parallel obm-train)
   libtcmalloc-minimal4  # allocator of the applications (LibTorch's large temporaries)
   # BLAS behind LibTorch: Debian's default alternative is ATLAS; OpenBLAS threaded with OpenMP shares

@@ -66,6 +66,12 @@ TEST(CloudOps, NormalizeVoxelSubsetCrop) {
   EXPECT_NEAR(v.points[0].x(), 1.025f, 1e-6);
   EXPECT_NEAR(v.intensity[0], 2.f, 1e-6);
   EXPECT_EQ(voxelDownsample(c, 0.0).size(), 3u);
+  auto coloured = c;
+  coloured.colors = {Color3u8(10, 200, 0), Color3u8(1, 2, 3), Color3u8(21, 100, 255)};
+  const auto vc = voxelDownsample(coloured, 0.5);
+  ASSERT_EQ(vc.colors.size(), 2u);
+  EXPECT_EQ(vc.colors[0], Color3u8(16, 150, 128));  // mean of points 0 and 2, rounded
+  EXPECT_EQ(vc.colors[1], Color3u8(1, 2, 3));
 
   std::mt19937_64 rng(2);
   std::vector<std::size_t> idx;

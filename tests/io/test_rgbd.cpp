@@ -422,7 +422,24 @@ TEST(RgbdSequence, RealOpen3dFolderWithTrajectory) {
     ASSERT_TRUE(seq.frame(k).has_pose);
     EXPECT_EQ(seq.frame(k).T_world_camera.matrix(), traj[k].matrix());
   }
-  EXPECT_THROW(seq.cloud(0, 0.0, 10.0, 1, /*with_color=*/true), IoError);  // JPEG colour
+  // The colour frames are JPEG: decoded and attached point by point.
+  const ColorImage jpg = readColorJpeg(seq.frame(0).color_path);
+  EXPECT_EQ(jpg.width, 640);
+  EXPECT_EQ(jpg.height, 480);
+  const PointCloud coloured = seq.cloud(0, 0.0, 10.0, 8, /*with_color=*/true);
+  ASSERT_EQ(coloured.colors.size(), coloured.size());
+  ASSERT_GT(coloured.size(), 1000u);
+  double mean = 0.0, mean2 = 0.0;
+  for (const auto& c : coloured.colors) {
+    const double g = (double(c[0]) + c[1] + c[2]) / 3.0;
+    mean += g;
+    mean2 += g * g;
+  }
+  mean /= double(coloured.size());
+  const double sd = std::sqrt(mean2 / double(coloured.size()) - mean * mean);
+  EXPECT_GT(sd, 10.0) << "a rendered room is not one flat grey";
+  EXPECT_GT(mean, 20.0);
+  EXPECT_LT(mean, 235.0);
 
   // The trajectory is camera-to-world: frames 0 and 4 back-projected and moved to the world
   // overlap closely; with the inverse convention they do not.
@@ -434,4 +451,27 @@ TEST(RgbdSequence, RealOpen3dFolderWithTrajectory) {
                                    c4.transformed(traj[4].inverse(), "world"));
   EXPECT_LT(good, 0.02);  // measured 0.0085 m
   EXPECT_GT(bad, 3.0 * good);
+}
+
+TEST(ColorImage, JpegErrorsNameTheFile) {
+  const std::string dir = test::scratchDir("jpeg_errors");
+  const std::string not_jpeg = dir + "/not_a.jpg", truncated = dir + "/truncated.jpg";
+  { std::ofstream(not_jpeg) << "hello"; }
+  {
+    // A JPEG start-of-image marker and then nothing usable.
+    std::ofstream f(truncated, std::ios::binary);
+    const unsigned char bytes[] = {0xFF, 0xD8, 0xFF, 0xE0, 0x00, 0x10, 'J', 'F', 'I', 'F'};
+    f.write(reinterpret_cast<const char*>(bytes), sizeof(bytes));
+  }
+  for (const std::string& path : {not_jpeg, truncated}) {
+    try {
+      readColorJpeg(path);
+      ADD_FAILURE() << path << " was read";
+    } catch (const FormatError& e) {
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_THROW(readColorJpeg(dir + "/missing.jpg"), IoError);
+  EXPECT_THROW(readColorImage(dir + "/image.bmp"), IoError);
+  EXPECT_THROW(readColorImage(not_jpeg), FormatError);  // by extension: the JPEG reader
 }

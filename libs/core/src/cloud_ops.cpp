@@ -27,7 +27,8 @@ PointCloud voxelDownsample(const PointCloud& cloud, double voxel) {
   struct Acc {
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     double isum = 0.0;
-    std::size_t n = 0, first = 0;
+    Eigen::Vector3d csum = Eigen::Vector3d::Zero();
+    std::size_t n = 0;
   };
   std::unordered_map<Eigen::Vector3i, std::size_t, VoxelKeyHash, VoxelKeyEq> index;
   std::vector<Acc> acc;
@@ -39,13 +40,11 @@ PointCloud voxelDownsample(const PointCloud& cloud, double voxel) {
                               static_cast<int>(std::floor(p.y() * inv)),
                               static_cast<int>(std::floor(p.z() * inv)));
     auto [it, inserted] = index.try_emplace(key, acc.size());
-    if (inserted) {
-      acc.emplace_back();
-      acc.back().first = i;
-    }
+    if (inserted) acc.emplace_back();
     Acc& a = acc[it->second];
     a.sum += p.cast<double>();
     if (cloud.hasIntensity()) a.isum += cloud.intensity[i];
+    if (cloud.hasColors()) a.csum += cloud.colors[i].cast<double>();
     ++a.n;
   }
   PointCloud out;
@@ -58,7 +57,9 @@ PointCloud voxelDownsample(const PointCloud& cloud, double voxel) {
     out.points.push_back((a.sum / static_cast<double>(a.n)).cast<float>());
     if (cloud.hasIntensity())
       out.intensity.push_back(static_cast<float>(a.isum / static_cast<double>(a.n)));
-    if (cloud.hasColors()) out.colors.push_back(cloud.colors[a.first]);
+    if (cloud.hasColors())
+      out.colors.push_back(
+          (a.csum / static_cast<double>(a.n)).array().round().cast<std::uint8_t>().matrix());
   }
   return out;
 }

@@ -354,7 +354,8 @@ struct Frontend::Impl {
       ScopedStage s(times, "local_map");
       kf.cloud = p.local_map.voxel > 0.0 ? voxelDownsample(cropped, p.local_map.voxel) : cropped;
       kf.cloud.intensity.clear();
-      kf.cloud.colors.clear();
+      // Colours stay only for coloured ICP's photometric term (memory otherwise).
+      if (!(p.tracking.icp.color_weight > 0.0)) kf.cloud.colors.clear();
     }
     if (p.loop_closure.enabled && p.loop_closure.use_descriptor) {
       ScopedStage s(times, "loop_search");

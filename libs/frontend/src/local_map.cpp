@@ -33,13 +33,22 @@ void LocalMap::rebuild(const std::vector<Keyframe>& keyframes, std::size_t frame
   const std::size_t k = keyframes.size() - 1;
   const std::size_t n = params_.keyframes;
   const std::size_t first = std::max(first_, k + 1 > n ? k + 1 - n : std::size_t{0});
-  std::vector<Vector3f> merged;
+  PointCloud merged;
   std::size_t total = 0;
-  for (std::size_t i = first; i <= k; ++i) total += keyframes[i].cloud.size();
-  merged.reserve(total);
+  // Colours are merged for coloured ICP's photometric term, when every keyframe has them.
+  bool colors = target_options_.color_gradients;
+  for (std::size_t i = first; i <= k; ++i) {
+    total += keyframes[i].cloud.size();
+    colors = colors && keyframes[i].cloud.hasColors();
+  }
+  merged.points.reserve(total);
+  if (colors) merged.colors.reserve(total);
   for (std::size_t i = first; i <= k; ++i) {
     const Eigen::Isometry3f T = keyframes[i].T_world_sensor.cast<float>();
-    for (const Vector3f& q : keyframes[i].cloud.points) merged.push_back(T * q);
+    for (const Vector3f& q : keyframes[i].cloud.points) merged.points.push_back(T * q);
+    if (colors)
+      merged.colors.insert(merged.colors.end(), keyframes[i].cloud.colors.begin(),
+                           keyframes[i].cloud.colors.end());
   }
   const bool async = allow_async && params_.async && current_ != nullptr;
   PreparedTarget::Options opt = target_options_;
@@ -47,15 +56,17 @@ void LocalMap::rebuild(const std::vector<Keyframe>& keyframes, std::size_t frame
   const double voxel = k > first ? params_.voxel : 0.0;
   const Vector3f center = keyframes[k].T_world_sensor.translation().cast<float>();
   const float r2 = static_cast<float>(params_.radius * params_.radius);
-  auto build = [points = std::move(merged), voxel, center, r2, opt]() mutable {
+  auto build = [cloud = std::move(merged), voxel, center, r2, opt]() mutable {
     Timer t;
-    PointCloud cloud;
-    cloud.points = std::move(points);
     if (voxel > 0.0) cloud = voxelDownsample(cloud, voxel);
     PointCloud cropped;
     cropped.points.reserve(cloud.size());
-    for (const Vector3f& q : cloud.points)
-      if ((q - center).squaredNorm() <= r2) cropped.points.push_back(q);
+    const bool colors = cloud.hasColors();
+    for (std::size_t i = 0; i < cloud.size(); ++i)
+      if ((cloud.points[i] - center).squaredNorm() <= r2) {
+        cropped.points.push_back(cloud.points[i]);
+        if (colors) cropped.colors.push_back(cloud.colors[i]);
+      }
     cropped.frame_id = "world";
     BuiltMap m;
     m.target = std::make_unique<PreparedTarget>(cropped, opt);

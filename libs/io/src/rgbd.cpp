@@ -660,9 +660,7 @@ PointCloud RgbdSequence::cloud(std::size_t i, double min_depth, double max_depth
   if (with_color) {
     if (f.color_path.empty())
       throw IoError("frame " + std::to_string(i) + " of '" + dir_ + "' has no colour image");
-    if (lowerExt(f.color_path) != ".png")
-      throw IoError("cannot read colour image '" + f.color_path + "': only PNG is supported");
-    c = readColorPng(f.color_path);
+    c = readColorImage(f.color_path);
   }
   PointCloud pc = depthToCloud(d, intrinsics_, depth_scale_, min_depth, max_depth, stride,
                                with_color ? &c : nullptr);

@@ -37,6 +37,8 @@ struct Problem {
   const PreparedTarget& target;
   const IcpParams& params;
   const std::vector<double>* weights = nullptr;  ///< per source point prior weights (or all 1)
+  /// Per source point colour intensity when the photometric term is on, else null.
+  const std::vector<float>* intensity = nullptr;
 };
 
 /// Left-perturbed pose update used by the linearisation below: T ← (exp(θ), ρ) ∘ T, i.e.
@@ -72,6 +74,9 @@ Correspondence findCorrespondence(const Problem& pb, const Eigen::Vector3d& pt, 
 /// Jacobians w.r.t. the left perturbation of p' = T·p:
 ///   plane: r = nᵀ(p' − q),  J = [nᵀ, (p' × n)ᵀ]
 ///   point: r = p' − q,      J = [I, −[p']×]
+///   colour (with a plane residual, Park et al. 2017 eq. 17–19):
+///          r = I(q) + dᵀ(p' − q) − I(p),  J = [dᵀ, (p' × d)ᵀ]
+///   (d ⊥ n, so dᵀ(p' − q) equals dᵀ of p' projected on q's tangent plane, minus q).
 Normal evaluate(const Problem& pb, std::vector<Correspondence>& corr, const Isometry3d& T,
                 bool normal, double search_gate, int threads) {
   const Eigen::Matrix3d R = T.linear();
@@ -81,6 +86,9 @@ Normal evaluate(const Problem& pb, std::vector<Correspondence>& corr, const Isom
   const auto kernel = pb.params.kernel;
   const double c = pb.params.kernel_scale;
   const bool search = search_gate > 0.0;
+  const bool color = pb.intensity != nullptr;
+  const double lambda_c = pb.params.color_weight;
+  const double c_c = pb.params.color_kernel_scale;
   if (search) corr.assign(pb.src.size(), Correspondence{});
   std::vector<Normal> partials(detail::numChunks(pb.src.size(), kChunk));
   detail::parallelChunks(pb.src.size(), kChunk, threads,
@@ -98,12 +106,25 @@ Normal evaluate(const Problem& pb, std::vector<Correspondence>& corr, const Isom
                                const Eigen::Vector3d n = nrm[std::size_t(k.target)].cast<double>();
                                const double r = n.dot(pt - q);
                                P.cost += pw * robustCost(kernel, r, c);
+                               double rc = 0.0;
+                               Eigen::Vector3d d = Eigen::Vector3d::Zero();
+                               if (color) {
+                                 const std::size_t j = std::size_t(k.target);
+                                 d = pb.target.colorGradients()[j].cast<double>();
+                                 rc = pb.target.intensity()[j] + d.dot(pt - q) - (*pb.intensity)[i];
+                                 P.cost += lambda_c * pw * robustCost(kernel, rc, c_c);
+                               }
                                if (!normal) continue;
                                const double w = pw * robustWeight(kernel, r, c);
                                Vector6d J;
                                J << n, pt.cross(n);
                                P.H.noalias() += w * J * J.transpose();
                                P.g.noalias() += (w * r) * J;
+                               if (!color) continue;
+                               const double wc = lambda_c * pw * robustWeight(kernel, rc, c_c);
+                               J << d, pt.cross(d);
+                               P.H.noalias() += wc * J * J.transpose();
+                               P.g.noalias() += (wc * rc) * J;
                              } else {
                                const Eigen::Vector3d rv = pt - q;
                                const double rn = rv.norm();
@@ -150,14 +171,23 @@ Vector6d solveStep(const Matrix6d& H, const Vector6d& g, double lambda, bool lm)
 
 IcpOutcome runIcp(const std::vector<Vector3f>& source_points, const PreparedTarget& target,
                   const Isometry3d& T_target_source_init, const IcpParams& params,
-                  const std::vector<double>* point_weights) {
+                  const std::vector<double>* point_weights,
+                  const std::vector<float>* source_intensity) {
   params.validate();
   if (point_weights && point_weights->size() != source_points.size())
     throw ContractError("runIcp: " + std::to_string(point_weights->size()) + " weights for " +
                         std::to_string(source_points.size()) + " source points");
+  if (source_intensity && source_intensity->size() != source_points.size())
+    throw ContractError("runIcp: " + std::to_string(source_intensity->size()) +
+                        " intensities for " + std::to_string(source_points.size()) +
+                        " source points");
   IcpOutcome out;
   out.T_target_source = T_target_source_init;
-  const Problem pb{source_points, target, params, point_weights};
+  // The photometric term needs intensities on both sides and the plane residual it rides on.
+  const bool color = source_intensity && params.color_weight > 0.0 &&
+                     target.hasColorGradients() && params.metric == IcpMetric::PointToPlane;
+  const Problem pb{source_points, target, params, point_weights,
+                   color ? source_intensity : nullptr};
   const double fine = params.max_correspondence_distance;
   double gate = params.initial_max_correspondence_distance > fine
                     ? params.initial_max_correspondence_distance
@@ -291,7 +321,13 @@ IcpMatcher::IcpMatcher(const IcpParams& icp, const ConfidenceParams& confidence)
 
 MatchResult IcpMatcher::impl_match(const PointCloud& source, const PreparedTarget& target,
                                    const Isometry3d& T_target_source_init) const {
-  const IcpOutcome icp = runIcp(source.points, target, T_target_source_init, icp_);
+  std::vector<float> intensity;
+  if (icp_.color_weight > 0.0 && source.hasColors() && target.hasColorGradients()) {
+    intensity.reserve(source.size());
+    for (const auto& c : source.colors) intensity.push_back(colorIntensity(c));
+  }
+  const IcpOutcome icp = runIcp(source.points, target, T_target_source_init, icp_, nullptr,
+                                intensity.empty() ? nullptr : &intensity);
   MatchResult result = icp.toMatchResult();
   if (icp.status == MatchStatus::TooFewCorrespondences) return result;
   const AlignmentStats stats =

@@ -20,6 +20,7 @@ PreparedTarget::Options IcpParams::targetOptions() const {
   o.normal_neighbors = normal_neighbors;
   o.min_planarity = min_planarity;
   o.threads = threads;
+  o.color_gradients = color_weight > 0.0;
   return o;
 }
 
@@ -38,6 +39,9 @@ void IcpParams::validate() const {
             std::isfinite(polish_max_correspondence_distance),
         "polish_max_correspondence_distance must be >= 0");
   check(kernel_scale > 0.0 && std::isfinite(kernel_scale), "kernel_scale must be > 0");
+  check(color_weight >= 0.0 && std::isfinite(color_weight), "color_weight must be >= 0");
+  check(color_kernel_scale > 0.0 && std::isfinite(color_kernel_scale),
+        "color_kernel_scale must be > 0");
   check(max_iterations >= 1, "max_iterations must be >= 1");
   check(translation_tolerance > 0.0, "translation_tolerance must be > 0");
   check(rotation_tolerance > 0.0, "rotation_tolerance must be > 0");
@@ -50,6 +54,7 @@ IcpParams IcpParams::load(const ConfigNode& node) {
   node.checkKeys({"source_voxel", "target_voxel", "normal_neighbors", "min_planarity",
                   "max_correspondence_distance", "initial_max_correspondence_distance",
                   "anneal_factor", "polish_max_correspondence_distance", "metric", "point_to_point_fallback", "kernel", "kernel_scale",
+                  "color_weight", "color_kernel_scale",
                   "solver", "max_iterations", "translation_tolerance", "rotation_tolerance_deg",
                   "min_correspondences", "threads"});
   node.get("source_voxel", p.source_voxel);
@@ -66,6 +71,8 @@ IcpParams IcpParams::load(const ConfigNode& node) {
   if (node.has("kernel"))
     p.kernel = parseRobustKernel(node.required<std::string>("kernel"), node.where("kernel"));
   node.get("kernel_scale", p.kernel_scale);
+  node.get("color_weight", p.color_weight);
+  node.get("color_kernel_scale", p.color_kernel_scale);
   if (node.has("solver"))
     p.solver = parseIcpSolver(node.required<std::string>("solver"), node.where("solver"));
   node.get("max_iterations", p.max_iterations);

@@ -62,6 +62,8 @@ struct PreparedTarget::Impl {
   PointCloud cloud;
   std::vector<Vector3f> normals;
   std::vector<std::uint8_t> valid;
+  std::vector<float> intensity;       // colour intensity (only with colour gradients)
+  std::vector<Vector3f> gradients;    // tangent-plane intensity gradients (idem)
   PointsAdaptor adaptor;
   std::unique_ptr<KdTree> tree;
 };
@@ -84,6 +86,12 @@ PreparedTarget::PreparedTarget(const PointCloud& target, const Options& options)
   if (n == 0) return;
   d.tree = std::make_unique<KdTree>(3, d.adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(10));
   d.tree->buildIndex();
+  const bool gradients = options.color_gradients && d.cloud.hasColors();
+  if (gradients) {
+    d.intensity.resize(n);
+    for (std::size_t i = 0; i < n; ++i) d.intensity[i] = colorIntensity(d.cloud.colors[i]);
+    d.gradients.assign(n, Vector3f::Zero());
+  }
 
   // PCA normals: eigenvector of the smallest eigenvalue of the k-neighbourhood covariance.
   const std::size_t k =
@@ -111,8 +119,28 @@ PreparedTarget::PreparedTarget(const PointCloud& target, const Options& options)
       Eigen::Vector3d normal = es.eigenvectors().col(0);
       // Orient towards the frame origin (the sensor) so normals are reproducible.
       if (normal.dot(d.cloud.points[i].cast<double>()) > 0.0) normal = -normal;
-      d.normals[i] = normal.normalized().cast<float>();
+      normal.normalize();
+      d.normals[i] = normal.cast<float>();
       d.valid[i] = planarity >= options.min_planarity ? 1 : 0;
+      if (gradients && d.valid[i]) {
+        // Intensity gradient on the tangent plane (Park, Zhou & Koltun 2017, eq. 10): least
+        // squares over the neighbours projected on the plane, plus the constraint d·n = 0 as one
+        // more row weighted like all the neighbours together.
+        const Eigen::Vector3d p = d.cloud.points[i].cast<double>();
+        const double Ip = d.intensity[i];
+        Eigen::Matrix3d AtA = Eigen::Matrix3d::Zero();
+        Eigen::Vector3d Atb = Eigen::Vector3d::Zero();
+        for (std::size_t j = 0; j < found; ++j) {
+          if (idx[j] == i) continue;
+          const Eigen::Vector3d q = d.cloud.points[idx[j]].cast<double>();
+          const Eigen::Vector3d a = (q - p) - normal * normal.dot(q - p);  // q' − p
+          AtA.noalias() += a * a.transpose();
+          Atb += a * (d.intensity[idx[j]] - Ip);
+        }
+        AtA.noalias() += double(found) * normal * normal.transpose();
+        const Eigen::Vector3d g = AtA.ldlt().solve(Atb);
+        if (g.allFinite()) d.gradients[i] = g.cast<float>();
+      }
     }
   });
 }
@@ -135,6 +163,15 @@ const std::vector<Vector3f>& PreparedTarget::normals() const {
 }
 const std::vector<std::uint8_t>& PreparedTarget::normalValid() const {
   return impl_->valid;
+}
+bool PreparedTarget::hasColorGradients() const {
+  return !impl_->gradients.empty();
+}
+const std::vector<float>& PreparedTarget::intensity() const {
+  return impl_->intensity;
+}
+const std::vector<Vector3f>& PreparedTarget::colorGradients() const {
+  return impl_->gradients;
 }
 const PreparedTarget::Options& PreparedTarget::options() const {
   return impl_->options;

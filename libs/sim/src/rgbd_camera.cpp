@@ -11,6 +11,54 @@
 
 namespace obm::sim {
 
+namespace {
+
+/// Grey-level noise of the colour image (σ ≈ 2 of 255, a Kinect-class sensor in room light).
+constexpr float kColorNoise = 2.0f;
+
+/// Smooth value noise in [0, 1] on a unit lattice: a hash per lattice point, blended trilinearly
+/// with smoothstep weights. Deterministic, so a surface point has the same colour in every frame.
+float valueNoise(const Eigen::Vector3f& x) {
+  const Eigen::Vector3f f(std::floor(x.x()), std::floor(x.y()), std::floor(x.z()));
+  const Eigen::Vector3f t = x - f;
+  const Eigen::Vector3f w = t.array() * t.array() * (3.f - 2.f * t.array());
+  auto lattice = [&](int dx, int dy, int dz) {
+    std::uint64_t h = static_cast<std::uint64_t>(static_cast<std::int64_t>(f.x()) + dx) *
+                      0x9E3779B97F4A7C15ull;
+    h ^= static_cast<std::uint64_t>(static_cast<std::int64_t>(f.y()) + dy) * 0xC2B2AE3D27D4EB4Full;
+    h ^= static_cast<std::uint64_t>(static_cast<std::int64_t>(f.z()) + dz) * 0x165667B19E3779F9ull;
+    h ^= h >> 29;
+    h *= 0xBF58476D1CE4E5B9ull;
+    h ^= h >> 32;
+    return static_cast<float>(h & 0xFFFFFF) / static_cast<float>(0xFFFFFF);
+  };
+  float v = 0.f;
+  for (int dz = 0; dz < 2; ++dz)
+    for (int dy = 0; dy < 2; ++dy)
+      for (int dx = 0; dx < 2; ++dx)
+        v += (dx ? w.x() : 1.f - w.x()) * (dy ? w.y() : 1.f - w.y()) * (dz ? w.z() : 1.f - w.z()) *
+             lattice(dx, dy, dz);
+  return v;
+}
+
+/// Albedo texture of every surface at world point X: two octaves of value noise (7 cm and 25 cm
+/// blobs), so walls, floors and furniture carry the texture an RGB-D tracker's photometric term
+/// needs (real rooms: paint, wood grain, posters), in [0.55, 1].
+float surfaceTexture(const Eigen::Vector3f& X) {
+  return 0.55f + 0.3f * valueNoise(X / 0.07f) + 0.15f * valueNoise(X / 0.25f);
+}
+
+/// Lambertian shading under a fixed light from above plus ambient light: it depends on the
+/// surface, not on the viewpoint, so a point keeps its brightness from frame to frame.
+float lambertShade(const Eigen::Vector3f& normal) {
+  static const Eigen::Vector3f light = Eigen::Vector3f(0.3f, 0.2f, 1.f).normalized();
+  const float nn = normal.norm();
+  if (!(nn > 0.f)) return 0.45f;
+  return 0.45f + 0.55f * std::fabs(normal.dot(light)) / nn;
+}
+
+}  // namespace
+
 RgbdParams RgbdParams::load(const ConfigNode& n) {
   RgbdParams p;
   n.checkKeys({"type",
@@ -141,6 +189,7 @@ DepthFrame RgbdSimulator::render(const RaycastScene& scene, const Eigen::Isometr
 
   detail::parallelFor(static_cast<std::size_t>(tile_rows), P.threads, [&](std::size_t tr) {
     Rng rng(hashSeed(seed, 0x4b1d, tr));
+    Rng crng(hashSeed(seed, 0xc010, tr));  // colour noise: the depth's draws stay as they were
     RayPacket16 pk;
     alignas(64) RTCRay16 shadow;
     alignas(64) int shadow_valid[16];
@@ -210,9 +259,18 @@ DepthFrame RgbdSimulator::render(const RaycastScene& scene, const Eigen::Isometr
         const std::size_t idx = static_cast<std::size_t>(v) * P.width + u;
         if (P.color) {
           const auto& mp = materialProperties(S.mesh.materials[pk.rh.hit.primID[i]]);
-          const float shade = 0.3f + 0.7f * pk.cosIncidence(i);
-          for (int k = 0; k < 3; ++k)
-            f.rgb[3 * idx + k] = static_cast<std::uint8_t>(std::min(255.f, mp.rgb[k] * shade));
+          const float z = pk.rh.ray.tfar[i];
+          const Eigen::Vector3f X(pk.rh.ray.org_x[i] + z * pk.rh.ray.dir_x[i],
+                                  pk.rh.ray.org_y[i] + z * pk.rh.ray.dir_y[i],
+                                  pk.rh.ray.org_z[i] + z * pk.rh.ray.dir_z[i]);
+          const Eigen::Vector3f n(pk.rh.hit.Ng_x[i], pk.rh.hit.Ng_y[i], pk.rh.hit.Ng_z[i]);
+          const float shade = lambertShade(n) * surfaceTexture(X);
+          for (int k = 0; k < 3; ++k) {
+            float c = mp.rgb[k] * shade;
+            if (noisy) c += kColorNoise * crng.normalFast();
+            f.rgb[3 * idx + k] =
+                static_cast<std::uint8_t>(std::clamp(std::lround(c), long{0}, long{255}));
+          }
         }
         float z = depth[i];
         if (!(z > 0.f)) continue;

@@ -33,10 +33,11 @@ void InputParams::validate() const {
 }
 
 InputParams InputParams::load(const ConfigNode& node) {
-  node.checkKeys({"rgbd_stride", "depth_min", "depth_max", "max_time_difference", "sensor_label",
+  node.checkKeys({"rgbd_stride", "rgbd_color", "depth_min", "depth_max", "max_time_difference", "sensor_label",
                   "velodyne_min_range"});
   InputParams p;
   node.get("rgbd_stride", p.rgbd_stride);
+  node.get("rgbd_color", p.rgbd_color);
   node.get("depth_min", p.depth_min);
   node.get("depth_max", p.depth_max);
   node.get("max_time_difference", p.max_time_difference);

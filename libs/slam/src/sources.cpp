@@ -127,7 +127,20 @@ class RgbdSource : public FrameSource {
     const double max_depth =
         p_.depth_max > 0.0 ? p_.depth_max : std::numeric_limits<double>::infinity();
     try {
-      cloud = seq_.cloud(i_, p_.depth_min, max_depth, p_.rgbd_stride, false);
+      bool color = p_.rgbd_color && !seq_.frame(i_).color_path.empty();
+      if (p_.rgbd_color && !color)
+        OBM_LOG_WARN(kLog, "frame " << i_ << ": no colour image (used without colour)");
+      if (color) {
+        try {
+          cloud = seq_.cloud(i_, p_.depth_min, max_depth, p_.rgbd_stride, true);
+        } catch (const Error& e) {
+          // A colour image that cannot be read (or is not registered to the depth) costs the
+          // photometric term of one frame, not the frame.
+          OBM_LOG_WARN(kLog, "frame " << i_ << ": " << e.what() << " (used without colour)");
+          color = false;
+        }
+      }
+      if (!color) cloud = seq_.cloud(i_, p_.depth_min, max_depth, p_.rgbd_stride, false);
     } catch (const Error& e) {
       ++read_errors_;
       OBM_LOG_WARN(kLog, "frame " << i_ << ": " << e.what() << " (skipped)");

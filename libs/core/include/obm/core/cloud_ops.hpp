@@ -8,7 +8,7 @@
 namespace obm {
 
 /// Voxel-grid down-sampling: one point per occupied voxel of edge `voxel` [m], the centroid of the
-/// voxel's points (intensity averaged, colour of the first point). Output order follows the first
+/// voxel's points (intensity and colour averaged, the colour rounded). Output order follows the first
 /// occurrence of each voxel in the input, so the result is deterministic. `voxel` <= 0 returns a
 /// copy.
 PointCloud voxelDownsample(const PointCloud& cloud, double voxel);

@@ -75,8 +75,17 @@ DepthImage readDepthPng(const std::string& path);
 void writeDepthPng(const std::string& path, const DepthImage& image);
 
 /// Reads a PNG as 8-bit RGB (palette and grey are expanded, alpha dropped, 16-bit reduced).
-/// Throws IoError / FormatError naming the file. JPEG is not supported.
+/// Throws IoError / FormatError naming the file.
 ColorImage readColorPng(const std::string& path);
+
+/// Reads a baseline or progressive JPEG as 8-bit RGB (grey converted; CMYK refused). Throws
+/// IoError when the file cannot be opened and FormatError naming the file when it is not a JPEG,
+/// is corrupt or is larger than 2^28 pixels.
+ColorImage readColorJpeg(const std::string& path);
+
+/// readColorPng or readColorJpeg by the file's extension (.png, .jpg, .jpeg, any case); IoError
+/// for other extensions.
+ColorImage readColorImage(const std::string& path);
 
 /// Writes an 8-bit RGB PNG atomically.
 void writeColorPng(const std::string& path, const ColorImage& image);
@@ -162,8 +171,9 @@ class RgbdSequence {
   DepthImage depth(std::size_t i) const;
 
   /// Frame `i` as a cloud in the camera optical frame (timestamp = frame time), see
-  /// depthToCloud(). With `with_color` the colour PNG is attached (IoError when the frame's colour
-  /// image is not a PNG or missing; only meaningful when colour is registered to depth).
+  /// depthToCloud(). With `with_color` the colour image (PNG or JPEG) is attached (IoError when
+  /// the frame has none, FormatError when it cannot be decoded; only meaningful when colour is
+  /// registered to depth; depthToCloud's ContractError when its size differs from the depth's).
   PointCloud cloud(std::size_t i, double min_depth = 0.0,
                    double max_depth = std::numeric_limits<double>::infinity(), int stride = 1,
                    bool with_color = false) const;

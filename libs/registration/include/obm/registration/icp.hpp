@@ -39,10 +39,14 @@ struct IcpOutcome {
 /// Runs ICP of `source_points` (source frame, finite) onto `target` from `T_target_source_init`.
 /// `point_weights` (optional, one ≥ 0 per source point) scale each point's robust residual: e.g.
 /// the Overlap Bias Matching Module's ω_i = w_i·(1 + α·m_i), so that the points predicted
-/// outside the overlap pull less. Throws ContractError when the sizes differ.
+/// outside the overlap pull less. `source_intensity` (optional, colorIntensity() per source point)
+/// turns on coloured ICP's photometric term when IcpParams::color_weight > 0 and the target has
+/// colour gradients (PreparedTarget::Options::color_gradients). Throws ContractError when the
+/// sizes differ.
 IcpOutcome runIcp(const std::vector<Vector3f>& source_points, const PreparedTarget& target,
                   const Isometry3d& T_target_source_init, const IcpParams& params,
-                  const std::vector<double>* point_weights = nullptr);
+                  const std::vector<double>* point_weights = nullptr,
+                  const std::vector<float>* source_intensity = nullptr);
 
 /// ICP from the initial guess alone, with the confidence of the solution.
 class IcpMatcher : public ScanMatcher {

@@ -59,6 +59,13 @@ struct IcpParams {
   bool point_to_point_fallback = true;
   RobustKernel kernel = RobustKernel::Huber;
   double kernel_scale = 0.1;  ///< [m] scale c of the robust kernel
+  /// Weight λ of the photometric term of coloured ICP (Park, Zhou & Koltun 2017): the cost is
+  /// E_geometric + λ·E_colour, with the colour residual r = I(q) + d_qᵀ(T·p − q) − I(p) on the
+  /// target's tangent-plane intensity gradient d_q (docs/registration.md, "Coloured ICP"). Used
+  /// only when both clouds carry colours; 0 = geometric ICP. The paper's σ = 0.968 of
+  /// (1 − σ)·E_C + σ·E_G is λ = (1 − σ)/σ ≈ 0.033. [-]
+  double color_weight = 0.0;
+  double color_kernel_scale = 0.1;  ///< scale of the robust kernel of the colour residual [0-1]
 
   // --- solver --------------------------------------------------------------------------------
   IcpSolver solver = IcpSolver::LevenbergMarquardt;

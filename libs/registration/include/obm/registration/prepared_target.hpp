@@ -23,7 +23,17 @@ struct PreparedTargetOptions {
   /// λ₀ <= λ₁ <= λ₂ the covariance eigenvalues (0 for lines and isotropic blobs, 1 for a disc).
   double min_planarity = 0.05;
   int threads = 2;  ///< threads of the normal estimation
+  /// Also estimate, where the cloud has colours and the normal is trusted, the gradient of the
+  /// colour intensity on the tangent plane (coloured ICP's photometric term, docs/registration.md
+  /// "Coloured ICP"): d_p minimises Σ_q (I(p) + d_pᵀ(q' − p) − I(q))² over the k neighbours q,
+  /// q' = q projected on p's tangent plane, with d_pᵀ n_p = 0.
+  bool color_gradients = false;
 };
+
+/// Grey level in [0, 1] of an RGB colour (ITU-R BT.601 luma), the photometric term's intensity.
+inline float colorIntensity(const Color3u8& c) {
+  return (0.299f * float(c[0]) + 0.587f * float(c[1]) + 0.114f * float(c[2])) / 255.f;
+}
 
 class PreparedTarget {
  public:
@@ -48,6 +58,14 @@ class PreparedTarget {
   /// 1 where the neighbourhood was planar enough for a point-to-plane residual, else 0.
   const std::vector<std::uint8_t>& normalValid() const;
   const Options& options() const;
+
+  /// True when colour gradients were estimated (Options::color_gradients and a coloured cloud).
+  bool hasColorGradients() const;
+  /// Intensity per point (colorIntensity); empty unless hasColorGradients().
+  const std::vector<float>& intensity() const;
+  /// Tangent-plane intensity gradient d_p [1/m] per point; zero where the normal is not trusted;
+  /// empty unless hasColorGradients().
+  const std::vector<Vector3f>& colorGradients() const;
 
   /// Nearest target point to `query` within `max_distance` [m]: its index and squared distance.
   /// Returns false when there is none that close.

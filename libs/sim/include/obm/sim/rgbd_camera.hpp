@@ -14,6 +14,11 @@
 ///    & Elberink 2012), so the depth step grows with z²;
 ///  - holes: incidence beyond `max_incidence_deg`, random loss, and the projector's shadow (a
 ///    surface point the projector, `projector_offset` to the right of the camera, cannot see).
+///
+/// Colour (`color`): material albedo × a procedural texture fixed to the surface (two octaves of
+/// value noise, 7 and 25 cm) × Lambertian shading under a fixed light plus ambient — independent
+/// of the viewpoint, as the brightness constancy of photometric tracking assumes — plus
+/// N(0, 2²) grey-level noise when `noise` (drawn apart from the depth noise).
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <vector>
@@ -47,7 +52,7 @@ struct RgbdParams {
   bool projector_shadow = true;        ///< holes where the projector cannot see the surface
   double max_incidence_deg = 80.0;     ///< [deg] steeper surfaces return nothing
   double dropout_probability = 0.002;  ///< random pixel loss
-  bool color = true;                   ///< also render a shaded colour image
+  bool color = true;                   ///< also render a textured, shaded colour image
   int threads = 0;                     ///< ray-casting threads (0 = all cores)
 
   /// Reads the keys above from a `sensor:` map. Throws ConfigError naming the key.

@@ -20,6 +20,10 @@ namespace obm::slam {
 struct InputParams {
   /// RGB-D folders: every n-th pixel row and column is back-projected (>= 1).
   int rgbd_stride = 2;
+  /// RGB-D folders: attach each frame's colour image (PNG or JPEG, registered to the depth) to its
+  /// points, for coloured ICP (tracking.icp.color_weight). A frame whose colour cannot be read is
+  /// used without colour (warning).
+  bool rgbd_color = false;
   double depth_min = 0.0;  ///< [m] RGB-D: nearer depth is dropped
   double depth_max = 0.0;  ///< [m] RGB-D: farther depth is dropped; 0 = keep all
   /// [s] strict bound on |t_frame − t_ground_truth| when a TUM-format ground truth is associated
