@@ -475,3 +475,28 @@ TEST(ColorImage, JpegErrorsNameTheFile) {
   EXPECT_THROW(readColorImage(dir + "/image.bmp"), IoError);
   EXPECT_THROW(readColorImage(not_jpeg), FormatError);  // by extension: the JPEG reader
 }
+
+TEST(DepthImage, EdgePixelsOfAStepAreRemovedOnBothSides) {
+  // 6×3 image: 1 m on the left half, 2 m on the right, one hole; 10 % relative jump.
+  DepthImage d;
+  d.width = 6;
+  d.height = 3;
+  d.data.assign(18, 1000);
+  for (int v = 0; v < 3; ++v)
+    for (int u = 3; u < 6; ++u) d.at(u, v) = 2000;
+  d.at(0, 0) = 0;  // a hole next to valid depth is not an edge
+  DepthImage copy = d;
+  EXPECT_EQ(removeDepthEdges(copy, 0.0), 0u);  // off
+  EXPECT_EQ(copy.data, d.data);
+  EXPECT_EQ(removeDepthEdges(d, 0.1), 6u);  // columns 2 and 3
+  for (int v = 0; v < 3; ++v) {
+    EXPECT_EQ(d.at(2, v), 0);
+    EXPECT_EQ(d.at(3, v), 0);
+    EXPECT_EQ(d.at(1, v), 1000);
+    EXPECT_EQ(d.at(4, v), 2000);
+  }
+  DepthImage gentle = copy;  // a 5 % slope between neighbours stays at a 10 % threshold
+  for (int v = 0; v < 3; ++v)
+    for (int u = 0; u < 6; ++u) gentle.at(u, v) = static_cast<std::uint16_t>(1000 + 50 * u);
+  EXPECT_EQ(removeDepthEdges(gentle, 0.1), 0u);
+}

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include "obm/core/errors.hpp"
@@ -145,6 +146,60 @@ TEST(ColoredIcp, ParametersAreValidated) {
   EXPECT_THROW(runIcp(pts, PreparedTarget(t), Isometry3d::Identity(), IcpParams(), nullptr,
                       &intensity),
                ContractError);
+}
+
+/// A room seen by a depth camera (optical frame: x right, y down, z forward): back wall at 4.5 m,
+/// floor, left wall, and a box 1 m in front of the camera.
+PointCloud cameraRoom(std::uint64_t seed) {
+  PointCloud c;
+  std::mt19937_64 rng(seed);
+  using test::sampleRect;
+  sampleRect(c, {-2.f, -1.5f, 4.5f}, {4.f, 0.f, 0.f}, {0.f, 3.f, 0.f}, 6000, rng);    // back wall
+  sampleRect(c, {-2.f, 1.2f, 0.5f}, {4.f, 0.f, 0.f}, {0.f, 0.f, 4.f}, 6000, rng);     // floor
+  sampleRect(c, {-2.f, -1.5f, 0.5f}, {0.f, 2.7f, 0.f}, {0.f, 0.f, 4.f}, 4000, rng);   // left wall
+  sampleRect(c, {-0.2f, 0.5f, 1.0f}, {0.5f, 0.f, 0.f}, {0.f, 0.7f, 0.f}, 1500, rng);  // box front
+  sampleRect(c, {0.3f, 0.5f, 1.0f}, {0.f, 0.f, 0.4f}, {0.f, 0.7f, 0.f}, 1500, rng);   // box side
+  sampleRect(c, {-0.2f, 0.5f, 1.0f}, {0.5f, 0.f, 0.f}, {0.f, 0.f, 0.4f}, 1500, rng);  // box top
+  return c;
+}
+
+TEST(DepthNoiseWeights, FarNoisyDepthPullsLess) {
+  // The source's depth carries the structured-light noise σ(z) = a + b·(z − z₀)² along each ray
+  // (2 mm at 1 m, 3 cm at 4.5 m); the target (a local map) is clean. Weighting by 1/σ² lets the
+  // near, precise points decide: over several noise draws the pose error shrinks.
+  IcpParams plain;
+  plain.max_correspondence_distance = 0.15;
+  plain.kernel = RobustKernel::Huber;
+  plain.kernel_scale = 0.02;
+  plain.max_iterations = 60;
+  IcpParams weighted = plain;
+  weighted.depth_noise_weights = true;
+  const Isometry3d T_true =
+      makeIsometry(Eigen::AngleAxisd(1.5 * kDegToRad, Eigen::Vector3d(0.3, 1.0, 0.2).normalized())
+                       .toRotationMatrix(),
+                   Eigen::Vector3d(0.03, -0.02, 0.04));
+  const PreparedTarget target(cameraRoom(1), plain.targetOptions());
+  double err_plain = 0.0, err_weighted = 0.0;
+  const int draws = 6;
+  for (int k = 0; k < draws; ++k) {
+    PointCloud src = cameraRoom(100 + k).transformed(T_true.inverse(), "camera");
+    std::mt19937_64 rng(200 + k);
+    std::normal_distribution<float> N(0.f, 1.f);
+    for (auto& p : src.points) {
+      const float dz = p.z() - 0.4f;
+      const float sigma = 0.0012f + 0.0019f * dz * dz;
+      p *= 1.f + sigma * N(rng) / p.z();  // along the ray: the depth z moves by sigma·N
+    }
+    err_plain += poseError(IcpMatcher(plain).match(src, target, Isometry3d::Identity())
+                               .T_target_source, T_true).first;
+    err_weighted += poseError(IcpMatcher(weighted).match(src, target, Isometry3d::Identity())
+                                  .T_target_source, T_true).first;
+  }
+  err_plain /= draws;
+  err_weighted /= draws;
+  std::printf("mean translation error: unweighted %.5f m, depth-noise weighted %.5f m\n", err_plain,
+              err_weighted);
+  EXPECT_LT(err_weighted, 0.8 * err_plain);  // measured 0.36 mm against 0.53 mm
 }
 
 }  // namespace

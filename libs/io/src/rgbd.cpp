@@ -284,6 +284,36 @@ void writeColorPng(const std::string& path, const ColorImage& image) {
 // ---------------------------------------------------------------------------------------------
 // Back-projection
 
+std::size_t removeDepthEdges(DepthImage& depth, double max_relative_jump) {
+  if (!(max_relative_jump > 0.0) || depth.data.empty()) return 0;
+  const int W = depth.width, H = depth.height;
+  // Raw units cancel in the relative test; 0 and 65535 are "no measurement".
+  auto valid = [](std::uint16_t v) { return v != 0 && v != 0xFFFF; };
+  std::vector<std::uint8_t> edge(depth.data.size(), 0);
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) {
+      const std::uint16_t z = depth.at(u, v);
+      if (!valid(z)) continue;
+      const double limit = max_relative_jump * z;
+      const int nu[4] = {u - 1, u + 1, u, u}, nv[4] = {v, v, v - 1, v + 1};
+      for (int k = 0; k < 4; ++k) {
+        if (nu[k] < 0 || nu[k] >= W || nv[k] < 0 || nv[k] >= H) continue;
+        const std::uint16_t zn = depth.at(nu[k], nv[k]);
+        if (valid(zn) && std::abs(double(zn) - double(z)) > limit) {
+          edge[static_cast<std::size_t>(v) * W + u] = 1;
+          break;
+        }
+      }
+    }
+  std::size_t removed = 0;
+  for (std::size_t k = 0; k < edge.size(); ++k)
+    if (edge[k]) {
+      depth.data[k] = 0;
+      ++removed;
+    }
+  return removed;
+}
+
 PointCloud depthToCloud(const DepthImage& depth, const PinholeIntrinsics& K, double depth_scale,
                         double min_depth, double max_depth, int stride, const ColorImage* color) {
   OBM_ASSERT(depth.width == K.width && depth.height == K.height,
@@ -653,9 +683,10 @@ DepthImage RgbdSequence::depth(std::size_t i) const {
 }
 
 PointCloud RgbdSequence::cloud(std::size_t i, double min_depth, double max_depth, int stride,
-                               bool with_color) const {
+                               bool with_color, double edge_jump) const {
   const RgbdFrame& f = frame(i);
-  const DepthImage d = readDepthPng(f.depth_path);
+  DepthImage d = readDepthPng(f.depth_path);
+  if (edge_jump > 0.0) removeDepthEdges(d, edge_jump);
   ColorImage c;
   if (with_color) {
     if (f.color_path.empty())

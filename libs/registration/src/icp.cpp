@@ -181,6 +181,21 @@ IcpOutcome runIcp(const std::vector<Vector3f>& source_points, const PreparedTarg
     throw ContractError("runIcp: " + std::to_string(source_intensity->size()) +
                         " intensities for " + std::to_string(source_points.size()) +
                         " source points");
+  // Depth-noise weights of an RGB-D source, times the caller's prior weights.
+  std::vector<double> noise_weights;
+  if (params.depth_noise_weights) {
+    auto sigma = [&](double z) {
+      const double dz = z - params.depth_noise_z0;
+      return params.depth_noise_a + params.depth_noise_b * dz * dz;
+    };
+    const double s1 = sigma(1.0);
+    noise_weights.resize(source_points.size());
+    for (std::size_t i = 0; i < source_points.size(); ++i) {
+      const double r = s1 / sigma(std::max(0.0, double(source_points[i].z())));
+      noise_weights[i] = r * r * (point_weights ? (*point_weights)[i] : 1.0);
+    }
+    point_weights = &noise_weights;
+  }
   IcpOutcome out;
   out.T_target_source = T_target_source_init;
   // The photometric term needs intensities on both sides and the plane residual it rides on.
@@ -262,6 +277,7 @@ IcpOutcome runIcp(const std::vector<Vector3f>& source_points, const PreparedTarg
     polish.initial_max_correspondence_distance = fine;
     polish.max_correspondence_distance = std::min(fine, params.polish_max_correspondence_distance);
     polish.polish_max_correspondence_distance = 0.0;
+    polish.depth_noise_weights = false;  // point_weights already carry them
     const IcpOutcome p = runIcp(source_points, target, T, polish, point_weights);
     if (p.status == MatchStatus::TooFewCorrespondences) return out;  // keep the plane result
     out.T_target_source = p.T_target_source;

@@ -42,6 +42,9 @@ void IcpParams::validate() const {
   check(color_weight >= 0.0 && std::isfinite(color_weight), "color_weight must be >= 0");
   check(color_kernel_scale > 0.0 && std::isfinite(color_kernel_scale),
         "color_kernel_scale must be > 0");
+  check(depth_noise_a > 0.0 && std::isfinite(depth_noise_a), "depth_noise_a must be > 0");
+  check(depth_noise_b >= 0.0 && std::isfinite(depth_noise_b), "depth_noise_b must be >= 0");
+  check(depth_noise_z0 >= 0.0 && std::isfinite(depth_noise_z0), "depth_noise_z0 must be >= 0");
   check(max_iterations >= 1, "max_iterations must be >= 1");
   check(translation_tolerance > 0.0, "translation_tolerance must be > 0");
   check(rotation_tolerance > 0.0, "rotation_tolerance must be > 0");
@@ -54,7 +57,8 @@ IcpParams IcpParams::load(const ConfigNode& node) {
   node.checkKeys({"source_voxel", "target_voxel", "normal_neighbors", "min_planarity",
                   "max_correspondence_distance", "initial_max_correspondence_distance",
                   "anneal_factor", "polish_max_correspondence_distance", "metric", "point_to_point_fallback", "kernel", "kernel_scale",
-                  "color_weight", "color_kernel_scale",
+                  "color_weight", "color_kernel_scale", "depth_noise_weights", "depth_noise_a",
+                  "depth_noise_b", "depth_noise_z0",
                   "solver", "max_iterations", "translation_tolerance", "rotation_tolerance_deg",
                   "min_correspondences", "threads"});
   node.get("source_voxel", p.source_voxel);
@@ -73,6 +77,10 @@ IcpParams IcpParams::load(const ConfigNode& node) {
   node.get("kernel_scale", p.kernel_scale);
   node.get("color_weight", p.color_weight);
   node.get("color_kernel_scale", p.color_kernel_scale);
+  node.get("depth_noise_weights", p.depth_noise_weights);
+  node.get("depth_noise_a", p.depth_noise_a);
+  node.get("depth_noise_b", p.depth_noise_b);
+  node.get("depth_noise_z0", p.depth_noise_z0);
   if (node.has("solver"))
     p.solver = parseIcpSolver(node.required<std::string>("solver"), node.where("solver"));
   node.get("max_iterations", p.max_iterations);

@@ -23,6 +23,8 @@ void validateAt(const ConfigNode& node, F&& validate) {
 
 void InputParams::validate() const {
   require(rgbd_stride >= 1, "rgbd_stride", "must be >= 1");
+  require(std::isfinite(rgbd_edge_jump) && rgbd_edge_jump >= 0.0, "rgbd_edge_jump",
+          "must be >= 0 (a fraction of the depth; 0 = off)");
   require(std::isfinite(depth_min) && depth_min >= 0.0, "depth_min", "must be >= 0 [m]");
   require(std::isfinite(depth_max) && depth_max >= 0.0, "depth_max", "must be >= 0 [m] (0 = all)");
   require(depth_max == 0.0 || depth_max > depth_min, "depth_max", "must exceed depth_min");
@@ -33,11 +35,12 @@ void InputParams::validate() const {
 }
 
 InputParams InputParams::load(const ConfigNode& node) {
-  node.checkKeys({"rgbd_stride", "rgbd_color", "depth_min", "depth_max", "max_time_difference", "sensor_label",
+  node.checkKeys({"rgbd_stride", "rgbd_color", "rgbd_edge_jump", "depth_min", "depth_max", "max_time_difference", "sensor_label",
                   "velodyne_min_range"});
   InputParams p;
   node.get("rgbd_stride", p.rgbd_stride);
   node.get("rgbd_color", p.rgbd_color);
+  node.get("rgbd_edge_jump", p.rgbd_edge_jump);
   node.get("depth_min", p.depth_min);
   node.get("depth_max", p.depth_max);
   node.get("max_time_difference", p.max_time_difference);

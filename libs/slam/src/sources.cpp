@@ -132,7 +132,8 @@ class RgbdSource : public FrameSource {
         OBM_LOG_WARN(kLog, "frame " << i_ << ": no colour image (used without colour)");
       if (color) {
         try {
-          cloud = seq_.cloud(i_, p_.depth_min, max_depth, p_.rgbd_stride, true);
+          cloud = seq_.cloud(i_, p_.depth_min, max_depth, p_.rgbd_stride, true,
+                             p_.rgbd_edge_jump);
         } catch (const Error& e) {
           // A colour image that cannot be read (or is not registered to the depth) costs the
           // photometric term of one frame, not the frame.
@@ -140,7 +141,8 @@ class RgbdSource : public FrameSource {
           color = false;
         }
       }
-      if (!color) cloud = seq_.cloud(i_, p_.depth_min, max_depth, p_.rgbd_stride, false);
+      if (!color)
+        cloud = seq_.cloud(i_, p_.depth_min, max_depth, p_.rgbd_stride, false, p_.rgbd_edge_jump);
     } catch (const Error& e) {
       ++read_errors_;
       OBM_LOG_WARN(kLog, "frame " << i_ << ": " << e.what() << " (skipped)");

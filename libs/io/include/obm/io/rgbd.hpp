@@ -105,6 +105,12 @@ PointCloud depthToCloud(const DepthImage& depth, const PinholeIntrinsics& intrin
                         double max_depth = std::numeric_limits<double>::infinity(), int stride = 1,
                         const ColorImage* color = nullptr);
 
+/// Removes the pixels on depth discontinuities (in place; returns how many): a valid pixel whose
+/// depth differs from a valid 4-neighbour's by more than `max_relative_jump`·z. At an occluding
+/// edge a structured-light sensor returns mixed and flying pixels between the two surfaces, whose
+/// points belong to neither; the edge pixels of both sides go. `max_relative_jump` <= 0: nothing.
+std::size_t removeDepthEdges(DepthImage& depth, double max_relative_jump);
+
 /// One depth frame of a sequence.
 struct RgbdFrame {
   double timestamp = 0.0;        ///< [s] time of the depth image
@@ -174,9 +180,10 @@ class RgbdSequence {
   /// depthToCloud(). With `with_color` the colour image (PNG or JPEG) is attached (IoError when
   /// the frame has none, FormatError when it cannot be decoded; only meaningful when colour is
   /// registered to depth; depthToCloud's ContractError when its size differs from the depth's).
+  /// `edge_jump` > 0 first drops depth-edge pixels (removeDepthEdges).
   PointCloud cloud(std::size_t i, double min_depth = 0.0,
                    double max_depth = std::numeric_limits<double>::infinity(), int stride = 1,
-                   bool with_color = false) const;
+                   bool with_color = false, double edge_jump = 0.0) const;
 
   /// The ground truth of the frames that have one, stamped with the depth time.
   Trajectory groundTruth() const;

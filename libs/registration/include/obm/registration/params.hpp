@@ -66,6 +66,14 @@ struct IcpParams {
   /// (1 − σ)·E_C + σ·E_G is λ = (1 − σ)/σ ≈ 0.033. [-]
   double color_weight = 0.0;
   double color_kernel_scale = 0.1;  ///< scale of the robust kernel of the colour residual [0-1]
+  /// Weights of an RGB-D source by the axial noise of structured-light depth (Nguyen, Izadi &
+  /// Lovell 2012): σ(z) = a + b·(z − z₀)² with z the point's depth (its z in the camera's optical
+  /// frame), w = (σ(1 m)/σ(z))², so far points, whose depth is several times noisier, pull less.
+  /// For sources in an optical frame only (z forward); off for LiDAR.
+  bool depth_noise_weights = false;
+  double depth_noise_a = 0.0012;   ///< [m] a (Kinect v1)
+  double depth_noise_b = 0.0019;   ///< [1/m] b
+  double depth_noise_z0 = 0.4;     ///< [m] z₀
 
   // --- solver --------------------------------------------------------------------------------
   IcpSolver solver = IcpSolver::LevenbergMarquardt;

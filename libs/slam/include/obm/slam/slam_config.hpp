@@ -24,6 +24,9 @@ struct InputParams {
   /// points, for coloured ICP (tracking.icp.color_weight). A frame whose colour cannot be read is
   /// used without colour (warning).
   bool rgbd_color = false;
+  /// RGB-D folders: drop depth pixels on discontinuities, where a neighbour's depth differs by
+  /// more than this fraction of the depth (flying pixels between two surfaces); 0 = keep all.
+  double rgbd_edge_jump = 0.0;
   double depth_min = 0.0;  ///< [m] RGB-D: nearer depth is dropped
   double depth_max = 0.0;  ///< [m] RGB-D: farther depth is dropped; 0 = keep all
   /// [s] strict bound on |t_frame − t_ground_truth| when a TUM-format ground truth is associated
