@@ -2,7 +2,7 @@
 # Fuzzes every reader of user input with libFuzzer (clang, AddressSanitizer + UBSan) and prints a
 # table: executions, coverage, crashes. Docs: docs/benchmarks.md, "Fuzzing".
 #
-#   scripts/fuzz.sh [SECONDS_PER_TARGET=60] [TARGETS="ply pcd off_obj kitti trajectories png hdf5 rawlog graph yaml"]
+#   scripts/fuzz.sh [SECONDS_PER_TARGET=60] [TARGETS="ply pcd off_obj kitti trajectories png jpeg hdf5 rawlog graph yaml"]
 #   scripts/fuzz.sh ci        # CI: a fixed number of runs from the seeds alone, fixed seed
 #                             # (deterministic: a clean run here is a clean run in CI)
 #
@@ -17,9 +17,9 @@ SECS=${1:-60}
 # stored in the file, so random bytes make it allocate gigabytes before it fails (it then fails
 # cleanly: tests/io, FuzzFindingHugeStringLengthIsAFormatError). Fuzz them by hand, with time.
 if [[ $SECS == ci ]]; then
-  TARGETS=${2:-"ply pcd off_obj kitti trajectories png hdf5 graph yaml"}
+  TARGETS=${2:-"ply pcd off_obj kitti trajectories png jpeg hdf5 graph yaml"}
 else
-  TARGETS=${2:-"ply pcd off_obj kitti trajectories png hdf5 rawlog graph yaml"}
+  TARGETS=${2:-"ply pcd off_obj kitti trajectories png jpeg hdf5 rawlog graph yaml"}
 fi
 BUILD="${OBM_FUZZ_BUILD:-$ROOT/build-fuzz}"
 DATA="${OBM_SHARED_DATA:-$ROOT/../shared/data}"
@@ -52,6 +52,7 @@ printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' > "$C/off_obj/seed.obj"
 seed "$C/kitti" "$DATA"/kitti/hdl64_sample/000000.bin "$DATA"/kitti/calib/00.txt "$DATA"/kitti/times/00.txt "$DATA"/kitti/poses/00.txt
 seed "$C/trajectories" "$DATA"/tum/*.txt "$DATA"/rgbd_open3d/*.log "$DATA"/rgbd_open3d/*.json
 seed "$C/png" $(ls "$DATA"/rgbd_open3d/depth/*.png 2> /dev/null | head -2) $(ls "$DATA"/rgbd_open3d/color/*.png 2> /dev/null | head -1)
+seed "$C/jpeg" $(ls "$DATA"/rgbd_open3d/color/*.jpg 2> /dev/null | head -2)
 # HDF5 files written by the project's own writer (the io tests' scratch files, when they ran).
 seed "$C/hdf5" $(find "$ROOT"/build*/test_scratch -name '*.h5' -size -64k 2> /dev/null | head -4)
 seed "$C/rawlog" /usr/share/mrpt/datasets/rot_scan_2d.rawlog /usr/share/mrpt/datasets/localization_demo.rawlog

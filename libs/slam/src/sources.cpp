@@ -111,6 +111,12 @@ class RgbdSource : public FrameSource {
       : seq_(std::move(seq)), kind_(kind), p_(p) {
     // TUM / ICL-NUIM layouts have no intrinsics file of their own; a folder that carries Open3D's
     // (as obm-sim writes them for other image sizes) overrides the layout's defaults.
+    // 7-Scenes' colour camera is not registered to its depth camera: pixel (u, v) of one is not
+    // pixel (u, v) of the other, so its colours would be attached to the wrong points.
+    if (kind == InputKind::SevenScenes && p_.rgbd_color) {
+      OBM_LOG_WARN(kLog, "7-Scenes: colour is not registered to depth; frames used without colour");
+      p_.rgbd_color = false;
+    }
     if (kind == InputKind::TumRgbd || kind == InputKind::IclNuim)
       for (const char* name : {"camera_intrinsic.json", "camera_primesense.json"}) {
         const fs::path f = fs::path(seq_.directory()) / name;
