@@ -3,6 +3,7 @@
 #include <cmath>
 #include <ctime>
 #include <filesystem>
+#include <future>
 #include <iomanip>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -116,6 +117,43 @@ std::string fmt(double v, int precision = 3) {
   return os.str();
 }
 
+/// Reads the next frame in a worker thread while the current one is processed, so that decoding
+/// (a depth and a colour PNG, a KITTI scan) overlaps with tracking instead of adding to it. The
+/// frames and their order are the source's: only one thread uses the source at a time.
+class FramePrefetcher {
+ public:
+  explicit FramePrefetcher(detail::FrameSource& source) : source_(source) {}
+  ~FramePrefetcher() { wait(); }
+  /// Waits for a pending read (its frame is dropped): the source is the caller's again.
+  void wait() {
+    if (pending_.valid()) pending_.wait();
+  }
+  FramePrefetcher(const FramePrefetcher&) = delete;
+  FramePrefetcher& operator=(const FramePrefetcher&) = delete;
+
+  /// Starts reading the next frame (no-op when a read is pending).
+  void prefetch() {
+    if (pending_.valid()) return;
+    pending_ = std::async(std::launch::async, [this] {
+      std::pair<bool, PointCloud> r;
+      r.first = source_.next(r.second);
+      return r;
+    });
+  }
+  /// The next frame (waits for the pending read, or reads it now); false at the end. A read
+  /// error is rethrown here.
+  bool next(PointCloud& cloud) {
+    prefetch();
+    auto r = pending_.get();
+    if (r.first) cloud = std::move(r.second);
+    return r.first;
+  }
+
+ private:
+  detail::FrameSource& source_;
+  std::future<std::pair<bool, PointCloud>> pending_;
+};
+
 }  // namespace
 
 void scoreLoops(const std::vector<frontend::LoopClosure>& loops,
@@ -204,6 +242,7 @@ RunSummary MappingApp::run() {
     }
   };
   Timer since_save;
+  FramePrefetcher reader(*source);
   while (options_.max_frames == 0 || n < options_.max_frames) {
     if (options_.cancel && options_.cancel->load()) {
       sum.interrupted = true;
@@ -211,10 +250,12 @@ RunSummary MappingApp::run() {
     }
     PointCloud cloud;
     {
-      ScopedStage s(app_times, "read");
-      if (!source->next(cloud)) break;
+      ScopedStage s(app_times, "read");  // the wait for the frame read meanwhile
+      if (!reader.next(cloud)) break;
     }
     if (n == 0) T_up_sensor = source->T_up_sensor();
+    // The following frame is read while this one is processed (unless it will not be used).
+    if (options_.max_frames == 0 || n + 1 < options_.max_frames) reader.prefetch();
     const frontend::FrameResult r = fe.process(cloud);
     frame_rows.push_back({r.match.quality, r.match.inlier_ratio, r.match.rmse,
                           r.match.conditioning, weakestTranslationSigma(r.match.information),
@@ -235,6 +276,7 @@ RunSummary MappingApp::run() {
       since_save.reset();
     }
   }
+  reader.wait();  // a read started before a cancel
   fe.finish();
   const auto& st = fe.stats();
   bar.finish("kf " + std::to_string(st.keyframes) + " loops " + std::to_string(st.loops_accepted));
