@@ -12,6 +12,12 @@
 # A folder that exists is reused when its sim_info.yaml names the same preset, seed and frames.
 # OUT_DIR/runs/NAME/ gets obm-map's outputs plus load.txt (uptime before and after the run) and
 # the command; OUT_DIR/mrpt/ the MRPT icp-slam comparison; OUT_DIR/table.md the Markdown table.
+# The indoor part also runs Open3D's classical RGB-D odometry (bin/obm-o3d-odometry, built when
+# Open3D is found; --method hybrid and colored_icp) on fr1xyz and fr2desk into
+# OUT_DIR/runs/SEQ_o3d_METHOD/, and obm-map and both peers on the 5 real frames of
+# $OBM_SHARED_DATA/rgbd_open3d (ground truth trajectory.log) into OUT_DIR/runs/rgbd_open3d*/; the
+# table's "indoor RGB-D" part scores all of them from their trajectory_tum.txt (ATE after rigid
+# alignment, RPE over 1 frame).
 #
 # Options:
 #   --build DIR         build folder with bin/obm-map and bin/obm-sim      [default: ROOT/build]
@@ -65,6 +71,7 @@ done
 source "$ROOT/scripts/bench_common.sh"
 bench_setup bench_slam.sh
 load1() { cut -d' ' -f1 /proc/loadavg; }
+O3D=$BUILD/bin/obm-o3d-odometry
 
 # ensure_seq DIR PRESET FRAMES: simulate DATA/DIR unless it exists with the same preset, seed and
 # length (FRAMES 0 = the preset's).
@@ -90,27 +97,40 @@ ensure_seq() {
   nice -n "$NICE" "$SIM" -p "$preset" -s "$SEED" "${n[@]}" -o "$dir" -q
 }
 
-# run_map NAME obm-map-args...: one obm-map run into OUT/runs/NAME with the load around it.
-run_map() {
-  local name=$1; shift
+# run_tool NAME TOOL BINARY DONE_FILE args...: one run of TOOL (BINARY args -o OUT/runs/NAME -q)
+# with the load around it; --resume keeps a run whose metrics.json and DONE_FILE exist.
+run_tool() {
+  local name=$1 tool=$2 bin=$3 done_file=$4; shift 4
   local dir=$OUT/runs/$name
-  if [[ $RESUME -eq 1 && -f $dir/metrics.json && -f $dir/timing.json ]]; then
+  if [[ $RESUME -eq 1 && -f $dir/metrics.json && -f $dir/$done_file ]]; then
     echo "== $name: kept (--resume)"
     return
   fi
   mkdir -p "$dir"
-  echo "obm-map $*" > "$dir/command.txt"
-  echo "== $name: obm-map $*"
+  echo "$tool $*" > "$dir/command.txt"
+  echo "== $name: $tool $*"
   { echo "before: $(uptime)"; } > "$dir/load.txt"
   # sample the 1-min load average every 10 s while the run lasts
   ( while true; do load1; sleep 10; done ) > "$dir/load_samples.txt" &
   local sampler=$!
   local rc=0
-  nice -n "$NICE" "$MAP" "$@" -o "$dir" -q || rc=$?
+  nice -n "$NICE" "$bin" "$@" -o "$dir" -q || rc=$?
   kill "$sampler" 2>/dev/null || true
   wait "$sampler" 2>/dev/null || true
   echo "after:  $(uptime)" >> "$dir/load.txt"
-  [[ $rc -eq 0 ]] || { echo "bench_slam.sh: obm-map failed for $name (exit $rc)" >&2; exit 1; }
+  [[ $rc -eq 0 ]] || { echo "bench_slam.sh: $tool failed for $name (exit $rc)" >&2; exit 1; }
+}
+
+# run_map NAME obm-map-args...: one obm-map run into OUT/runs/NAME with the load around it.
+run_map() { local name=$1; shift; run_tool "$name" obm-map "$MAP" timing.json "$@"; }
+
+# run_peer NAME METHOD INPUT: obm-o3d-odometry --method METHOD on INPUT into OUT/runs/NAME.
+# Open3D's loops are OpenMP, whose threads spin while they wait by default: on 2 cores with
+# anything else running that made the hybrid odometry 2.5x slower (1.5 against 3.8 frames/s), so
+# they wait passively unless OMP_WAIT_POLICY is set.
+run_peer() {
+  OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-PASSIVE} \
+    run_tool "$1" obm-o3d-odometry "$O3D" trajectory_tum.txt -i "$3" --method "$2"
 }
 
 KITTI_CFG=$ROOT/config/map_kitti.yaml
@@ -135,6 +155,20 @@ if want indoor; then
   ensure_seq fr2desk indoor_tum_fr2_desk "$FR2_FRAMES"
   run_map fr1xyz -c "$INDOOR_CFG" -i "$DATA/fr1xyz"
   run_map fr2desk -c "$INDOOR_CFG" -i "$DATA/fr2desk"
+  # The classical peer on the same sequences, and both systems on the 5 real frames of
+  # rgbd_open3d (Redwood layout, ground truth trajectory.log, which obm-map reads itself).
+  REAL=$OBM_SHARED_DATA/rgbd_open3d
+  [[ -f $REAL/trajectory.log ]] || { echo "bench_slam.sh: $REAL/trajectory.log missing" >&2; exit 1; }
+  run_map rgbd_open3d -c "$INDOOR_CFG" -i "$REAL"
+  if [[ -x $O3D ]]; then
+    for method in hybrid colored_icp; do
+      run_peer "fr1xyz_o3d_$method" "$method" "$DATA/fr1xyz"
+      run_peer "fr2desk_o3d_$method" "$method" "$DATA/fr2desk"
+      run_peer "rgbd_open3d_o3d_$method" "$method" "$REAL"
+    done
+  else
+    echo "bench_slam.sh: $O3D not built (needs Open3D, libopen3d-dev): no Open3D peer rows" >&2
+  fi
 fi
 
 if want suite; then
@@ -182,10 +216,10 @@ if want mrpt; then
 fi
 
 # --- scoring and the table ------------------------------------------------------------------------
-python3 - "$OUT" "$DATA" "$MRPT_FRAMES" > "$OUT/table.md" << 'PY'
-import json, math, os, sys
+python3 - "$OUT" "$DATA" "$MRPT_FRAMES" "${OBM_SHARED_DATA:-}" > "$OUT/table.md" << 'PY'
+import bisect, json, math, os, sys
 
-out, data, mrpt_frames = sys.argv[1], sys.argv[2], int(sys.argv[3])
+out, data, mrpt_frames, shared = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4]
 
 # ---- small SE(3) helpers (4x4 lists), no numpy ---------------------------------------------------
 def mat(R, t):
@@ -400,6 +434,93 @@ if os.path.exists(os.path.join(P, 'groundtruth.txt')):
             else:
                 better = 'yes' if (ref[4] < s[4] and (ref[2] or 0) < (s[2] or 1e9)) else '**no**'
         print(f'| {s[0]} | {s[1]} | {length:.0f} m | {fmt(s[2], "{:.3f}")} | {fmt(s[3], "{:.3f}")} | {s[4]:.3f} m | {s[5]:.3f} m | {s[6]} | {s[7]} | {s[8]} | {better or "(reference)"} |')
+
+# ---- indoor RGB-D: obm-map against Open3D's classical RGB-D odometry ------------------------------
+# Every row is scored here from its trajectory_tum.txt (camera optical frame, depth time stamps):
+# poses associated with the ground truth by nearest time stamp (< 0.02 s, as obm-map does for TUM
+# folders; rgbd_open3d: pose k = item k of trajectory.log, frame k at k/30 s as libs/io stamps it),
+# ATE RMSE after the rigid alignment above, RPE between consecutive associated frames
+# (E = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j), RMSE of |t(E)| and of angle(E), as libs/eval and obm-map's
+# metrics.json). The ATE is checked against each run's own metrics.json.
+def read_tum_stamped(path):
+    rows = []
+    for line in open(path):
+        if line.startswith('#') or not line.strip():
+            continue
+        v = [float(x) for x in line.replace(',', ' ').split()]
+        rows.append((v[0], mat(quat_to_R(*v[4:8]), v[1:4])))
+    return rows
+def read_redwood_log(path):
+    lines = [l.split() for l in open(path) if l.strip()]
+    return [[[float(x) for x in lines[5 * k + 1 + r]] for r in range(4)] for k in range(len(lines) // 5)]
+def associate(est, gt, max_dt=0.02):
+    gt_t = [t for t, _ in gt]
+    order = sorted(range(len(gt_t)), key=lambda i: gt_t[i])
+    st = [gt_t[i] for i in order]
+    pairs = []
+    for t, T in est:
+        k = bisect.bisect_left(st, t)
+        best = min((c for c in (k - 1, k) if 0 <= c < len(st)), key=lambda c: abs(st[c] - t), default=None)
+        if best is not None and abs(st[best] - t) < max_dt:
+            pairs.append((gt[order[best]][1], T))
+    return [p[0] for p in pairs], [p[1] for p in pairs]
+def rpe1(gt, est):
+    te, re = [], []
+    for i in range(len(gt) - 1):
+        E = mul(inv(mul(inv(gt[i]), gt[i + 1])), mul(inv(est[i]), est[i + 1]))
+        te.append(E[0][3] ** 2 + E[1][3] ** 2 + E[2][3] ** 2)
+        c = max(min(0.5 * (E[0][0] + E[1][1] + E[2][2] - 1.0), 1.0), -1.0)
+        re.append(math.degrees(math.acos(c)) ** 2)
+    if not te:
+        return None, None
+    return math.sqrt(sum(te) / len(te)), math.sqrt(sum(re) / len(re))
+def map_label(run):
+    words = open(os.path.join(run, 'command.txt')).read().split()
+    cfg = words[words.index('-c') + 1] if '-c' in words else '?'
+    return f'obm-map ({os.path.basename(cfg)})'
+
+PEERS = (('hybrid', 'Open3D RGB-D odometry (hybrid)'),
+         ('colored_icp', 'Open3D coloured ICP (frame to frame)'))
+indoor = []
+for seq, label, gt_file in (('fr1xyz', 'indoor_tum_fr1_xyz (sim)', os.path.join(data, 'fr1xyz', 'groundtruth.txt')),
+                            ('fr2desk', 'indoor_tum_fr2_desk (sim)', os.path.join(data, 'fr2desk', 'groundtruth.txt')),
+                            ('rgbd_open3d', 'rgbd_open3d (shared data, 5 frames)',
+                             os.path.join(shared, 'rgbd_open3d', 'trajectory.log') if shared else '')):
+    if not gt_file or not os.path.exists(gt_file):
+        continue
+    if gt_file.endswith('.log'):
+        gt = [(k / 30.0, T) for k, T in enumerate(read_redwood_log(gt_file))]
+    else:
+        gt = read_tum_stamped(gt_file)
+    for name, system in [(seq, None)] + [(f'{seq}_o3d_{m}', lab) for m, lab in PEERS]:
+        run = os.path.join(out, 'runs', name)
+        traj = os.path.join(run, 'trajectory_tum.txt')
+        m = jload(os.path.join(run, 'metrics.json'))
+        if m is None or not os.path.exists(traj):
+            continue
+        est = read_tum_stamped(traj)
+        g, e = associate(est, gt)
+        if len(g) < 3:
+            continue
+        a = ate(g, e)
+        rt, rr = rpe1(g, e)
+        if system is None:
+            t = jload(os.path.join(run, 'timing.json'))
+            # obm-map's counterpart of a failed estimate: a frame bridged by the motion model
+            fps, system = t['frames_per_second'] if t else None, map_label(run)
+            failures = f"{m['frames_bridged']} bridged" if 'frames_bridged' in m else '—'
+        else:
+            fps, failures = m['frames_per_second'], str(m['failures'])
+        if m.get('ate_rmse_m') is not None and abs(m['ate_rmse_m'] - a) > 1e-3 * max(0.01, m['ate_rmse_m']):
+            print(f'<!-- warning: {name}: ATE {a:.5f} here vs {m["ate_rmse_m"]:.5f} in metrics.json -->')
+        indoor.append((label, str(len(est)), system, f'{100 * a:.2f} cm', fmt(rt and 100 * rt, '{:.3f} cm'),
+                       fmt(rr, '{:.3f}°'), failures, fmt(fps, '{:.1f}'), load_range(run)))
+if indoor:
+    print()
+    print('| indoor RGB-D sequence | frames | system | ATE RMSE | RPE (1 frame) trans | RPE (1 frame) rot | odometry failures | frames/s (wall) | load (1 min) |')
+    print('|---|---|---|---|---|---|---|---|---|')
+    for r in indoor:
+        print('| ' + ' | '.join(r) + ' |')
 PY
 echo "== table: $OUT/table.md"
 cat "$OUT/table.md"
