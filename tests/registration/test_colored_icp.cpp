@@ -124,6 +124,14 @@ TEST(ColoredIcp, TheTexturePinsTheInPlaneShiftThatGeometryLeavesFree) {
   EXPECT_GT(geo_t, 0.03) << "geometric ICP should not see the in-plane shift";
   EXPECT_LT(col_t, 0.004) << "coloured ICP: " << col_t << " m, " << col_r << " deg";
   EXPECT_LT(col_r, 0.3);
+  // The quality sees what pinned the pose: a plane is degenerate for the geometric cost, not for
+  // the coloured one.
+  std::printf("conditioning: geometric %.2e (%s), coloured %.2e (%s)\n", geo.conditioning,
+              toString(geo.status), col.conditioning, toString(col.status));
+  EXPECT_EQ(geo.status, MatchStatus::Degenerate);
+  EXPECT_EQ(col.status, MatchStatus::Ok);
+  EXPECT_GT(col.conditioning, 100.0 * geo.conditioning);
+  EXPECT_GT(col.quality, geo.quality);
 
   // Colourless source: the photometric term is off and the result is the geometric one.
   PointCloud grey = source;

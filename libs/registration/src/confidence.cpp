@@ -17,6 +17,7 @@ constexpr std::size_t kChunk = 1024;
 /// Per-chunk partial sums (summed in chunk order: bit-identical for any thread count).
 struct Partial {
   Matrix6d H = Matrix6d::Zero();
+  Matrix6d Hc = Matrix6d::Zero();  // the photometric term's (coloured ICP)
   double weight_sum = 0.0;   // Σ ω m
   double omega_sum = 0.0;    // Σ ω
   double weighted_r2 = 0.0;  // Σ ω ‖r‖²
@@ -70,9 +71,13 @@ Matrix6d informationG2oToTheta(const Matrix6d& omega_q) {
 AlignmentStats evaluateAlignment(const std::vector<Vector3f>& source_points,
                                  const std::vector<double>* point_weights,
                                  const PreparedTarget& target, const Isometry3d& T_target_source,
-                                 const IcpParams& icp, const ConfidenceParams& confidence) {
+                                 const IcpParams& icp, const ConfidenceParams& confidence,
+                                 const std::vector<float>* source_intensity) {
   OBM_ASSERT(!point_weights || point_weights->size() == source_points.size(),
              "evaluateAlignment: one prior weight per source point");
+  OBM_ASSERT(!source_intensity || source_intensity->size() == source_points.size(),
+             "evaluateAlignment: one intensity per source point");
+  const bool color = source_intensity && icp.color_weight > 0.0 && target.hasColorGradients();
   AlignmentStats s;
   s.num_points = source_points.size();
   if (source_points.empty() || target.empty()) return s;
@@ -109,6 +114,16 @@ AlignmentStats evaluateAlignment(const std::vector<Vector3f>& source_points,
             Vector6d J;
             J << ns, p.cross(ns);
             P.H.noalias() += w * J * J.transpose();
+            if (color) {
+              // Coloured ICP's photometric term constrains what the geometry may leave free.
+              const Eigen::Vector3d d = target.colorGradients()[j].cast<double>();
+              const double rc = target.intensity()[j] + d.dot(pt - q) - (*source_intensity)[i];
+              const double wc = icp.color_weight * prior *
+                                robustWeight(icp.kernel, rc, icp.color_kernel_scale);
+              const Eigen::Vector3d ds = R.transpose() * d;
+              J << ds, p.cross(ds);
+              P.Hc.noalias() += wc * J * J.transpose();
+            }
             P.weight_sum += w;
             P.omega_sum += w;
             P.weighted_r2 += w * r2;
@@ -138,6 +153,7 @@ AlignmentStats evaluateAlignment(const std::vector<Vector3f>& source_points,
   Partial T;
   for (const auto& P : partials) {
     T.H += P.H;
+    T.Hc += P.Hc;
     T.weight_sum += P.weight_sum;
     T.omega_sum += P.omega_sum;
     T.weighted_r2 += P.weighted_r2;
@@ -163,7 +179,10 @@ AlignmentStats evaluateAlignment(const std::vector<Vector3f>& source_points,
   Vector6d D;
   D << 1, 1, 1, 1, 1, 1;
   if (L > 0.0) D.tail<3>().setConstant(1.0 / L);
-  const Matrix6d Hn = D.asDiagonal() * s.hessian * D.asDiagonal() / T.weight_sum;
+  // With coloured ICP, the conditioning is that of the whole cost the pose minimised (geometric +
+  // photometric): a wall with a texture is not degenerate for it. The information stays geometric.
+  const Matrix6d H_cost = color ? Matrix6d(s.hessian + 0.5 * (T.Hc + T.Hc.transpose())) : s.hessian;
+  const Matrix6d Hn = D.asDiagonal() * H_cost * D.asDiagonal() / T.weight_sum;
   Eigen::SelfAdjointEigenSolver<Matrix6d> es(Hn, Eigen::EigenvaluesOnly);
   s.conditioning = std::max(0.0, es.eigenvalues()(0));
   return s;

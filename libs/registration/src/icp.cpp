@@ -347,7 +347,8 @@ MatchResult IcpMatcher::impl_match(const PointCloud& source, const PreparedTarge
   MatchResult result = icp.toMatchResult();
   if (icp.status == MatchStatus::TooFewCorrespondences) return result;
   const AlignmentStats stats =
-      evaluateAlignment(source.points, nullptr, target, result.T_target_source, icp_, confidence_);
+      evaluateAlignment(source.points, nullptr, target, result.T_target_source, icp_, confidence_,
+                        intensity.empty() ? nullptr : &intensity);
   applyConfidence(result, stats, stats, true, icp_, confidence_);
   return result;
 }

@@ -36,11 +36,15 @@ struct AlignmentStats {
 /// Evaluates source points (source frame) against `target` at `T_target_source` with the
 /// residual model of `icp` (fine gate, metric, fallback, kernel) and per-point prior weights
 /// `point_weights` (nullptr = all 1; else one per point, >= 0). ω_i = point_weight_i ·
-/// robust_weight(r_i). Deterministic and independent of icp.threads.
+/// robust_weight(r_i). Deterministic and independent of icp.threads. With `source_intensity`
+/// (colorIntensity() per point), IcpParams::color_weight > 0 and target colour gradients, the
+/// conditioning is taken on the Hessian of the coloured-ICP cost (geometric + photometric), so a
+/// textured plane is not reported degenerate; the Hessian and information stay geometric.
 AlignmentStats evaluateAlignment(const std::vector<Vector3f>& source_points,
                                  const std::vector<double>* point_weights,
                                  const PreparedTarget& target, const Isometry3d& T_target_source,
-                                 const IcpParams& icp, const ConfidenceParams& confidence);
+                                 const IcpParams& icp, const ConfidenceParams& confidence,
+                                 const std::vector<float>* source_intensity = nullptr);
 
 /// Scalar quality in [0, 1]:
 ///   q = min(1, inlier_ratio/ρ_ref) · max(0, 1 − rmse/d_max) · min(1, overlap/o_ref)
