@@ -9,6 +9,8 @@
 #   k00         obm-sim -p kitti00_gt -s SEED -n K00_FRAMES     (needs OBM_SHARED_DATA: KITTI 00 poses)
 #   fr1xyz      obm-sim -p indoor_tum_fr1_xyz -s SEED -n 400    (needs OBM_SHARED_DATA: TUM poses)
 #   fr2desk     obm-sim -p indoor_tum_fr2_desk -s SEED -n 600
+#   office      obm-sim -p indoor_loop -s SEED            (a 35 m walk through an office floor:
+#               rooms, doors, a corridor, back to the start)
 # A folder that exists is reused when its sim_info.yaml names the same preset, seed and frames.
 # OUT_DIR/runs/NAME/ gets obm-map's outputs plus load.txt (uptime before and after the run) and
 # the command; OUT_DIR/mrpt/ the MRPT icp-slam comparison; OUT_DIR/table.md the Markdown table.
@@ -30,6 +32,9 @@
 #   --seed S            obm-sim master seed of every sequence              [default: 5]
 #   --mrpt-frames N     prefix of the urban rawlog given to icp-slam       [default: 600]
 #   --indoor-config F   configuration of the indoor runs           [default: config/map_indoor.yaml]
+#                       (each indoor sequence is also run with its colour and depth-noise terms
+#                       off, NAME_geometric: the geometric ICP-only tracking, same file otherwise)
+#   --o3d-methods LIST  Open3D peers of the indoor part, comma-separated [default: hybrid,colored_icp]
 #   --nice N            niceness of every run                              [default: 5]
 #   --resume            keep runs that already have their results in OUT_DIR (an interrupted
 #                       benchmark goes on where it stopped; the table is rebuilt from all runs)
@@ -45,12 +50,13 @@ K00_FRAMES=1000
 MRPT_FRAMES=600
 FR1_FRAMES=400
 FR2_FRAMES=600
+O3D_METHODS=hybrid,colored_icp
 INDOOR_CFG=$ROOT/config/map_indoor.yaml
 NICE=5
 SEED=5
 RESUME=0
 
-usage() { sed -n '2,32p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,40p' "$0" | sed 's/^# \{0,1\}//'; }
 POS=()
 while [[ $# -gt 0 ]]; do
   case $1 in
@@ -60,6 +66,7 @@ while [[ $# -gt 0 ]]; do
     --mrpt-frames) MRPT_FRAMES=$2; shift 2 ;;
     --indoor-config) INDOOR_CFG=$(cd "$(dirname "$2")" && pwd)/$(basename "$2"); shift 2 ;;
     --nice) NICE=$2; shift 2 ;;
+    --o3d-methods) O3D_METHODS=$2; shift 2 ;;
     --seed) SEED=$2; shift 2 ;;
     --resume) RESUME=1; shift ;;
     -h|--help) usage; exit 0 ;;
@@ -153,17 +160,21 @@ if want indoor; then
   : "${OBM_SHARED_DATA:?the indoor_tum_* presets need OBM_SHARED_DATA (e.g. /work/shared/data)}"
   ensure_seq fr1xyz indoor_tum_fr1_xyz "$FR1_FRAMES"
   ensure_seq fr2desk indoor_tum_fr2_desk "$FR2_FRAMES"
-  run_map fr1xyz -c "$INDOOR_CFG" -i "$DATA/fr1xyz"
-  run_map fr2desk -c "$INDOOR_CFG" -i "$DATA/fr2desk"
+  ensure_seq office indoor_loop 0
+  GEOMETRIC=(--set input.rgbd_color=false --set tracking.icp.color_weight=0
+             --set tracking.icp.depth_noise_weights=false)
+  for seq in fr1xyz fr2desk office; do
+    run_map "$seq" -c "$INDOOR_CFG" -i "$DATA/$seq"
+    run_map "${seq}_geometric" -c "$INDOOR_CFG" -i "$DATA/$seq" "${GEOMETRIC[@]}"
+  done
   # The classical peer on the same sequences, and both systems on the 5 real frames of
   # rgbd_open3d (Redwood layout, ground truth trajectory.log, which obm-map reads itself).
   REAL=$OBM_SHARED_DATA/rgbd_open3d
   [[ -f $REAL/trajectory.log ]] || { echo "bench_slam.sh: $REAL/trajectory.log missing" >&2; exit 1; }
   run_map rgbd_open3d -c "$INDOOR_CFG" -i "$REAL"
   if [[ -x $O3D ]]; then
-    for method in hybrid colored_icp; do
-      run_peer "fr1xyz_o3d_$method" "$method" "$DATA/fr1xyz"
-      run_peer "fr2desk_o3d_$method" "$method" "$DATA/fr2desk"
+    for method in ${O3D_METHODS//,/ }; do
+      for seq in fr1xyz fr2desk office; do run_peer "${seq}_o3d_$method" "$method" "$DATA/$seq"; done
       run_peer "rgbd_open3d_o3d_$method" "$method" "$REAL"
     done
   else
@@ -484,6 +495,7 @@ PEERS = (('hybrid', 'Open3D RGB-D odometry (hybrid)'),
 indoor = []
 for seq, label, gt_file in (('fr1xyz', 'indoor_tum_fr1_xyz (sim)', os.path.join(data, 'fr1xyz', 'groundtruth.txt')),
                             ('fr2desk', 'indoor_tum_fr2_desk (sim)', os.path.join(data, 'fr2desk', 'groundtruth.txt')),
+                            ('office', 'indoor_loop, office floor (sim)', os.path.join(data, 'office', 'groundtruth.txt')),
                             ('rgbd_open3d', 'rgbd_open3d (shared data, 5 frames)',
                              os.path.join(shared, 'rgbd_open3d', 'trajectory.log') if shared else '')):
     if not gt_file or not os.path.exists(gt_file):
@@ -492,7 +504,7 @@ for seq, label, gt_file in (('fr1xyz', 'indoor_tum_fr1_xyz (sim)', os.path.join(
         gt = [(k / 30.0, T) for k, T in enumerate(read_redwood_log(gt_file))]
     else:
         gt = read_tum_stamped(gt_file)
-    for name, system in [(seq, None)] + [(f'{seq}_o3d_{m}', lab) for m, lab in PEERS]:
+    for name, system in [(seq, None), (f'{seq}_geometric', None)] + [(f'{seq}_o3d_{m}', lab) for m, lab in PEERS]:
         run = os.path.join(out, 'runs', name)
         traj = os.path.join(run, 'trajectory_tum.txt')
         m = jload(os.path.join(run, 'metrics.json'))
@@ -508,6 +520,8 @@ for seq, label, gt_file in (('fr1xyz', 'indoor_tum_fr1_xyz (sim)', os.path.join(
             t = jload(os.path.join(run, 'timing.json'))
             # obm-map's counterpart of a failed estimate: a frame bridged by the motion model
             fps, system = t['frames_per_second'] if t else None, map_label(run)
+            if name.endswith('_geometric'):
+                system += ', geometric ICP only (no colour, no depth-noise weights)'
             failures = f"{m['frames_bridged']} bridged" if 'frames_bridged' in m else '—'
         else:
             fps, failures = m['frames_per_second'], str(m['failures'])
