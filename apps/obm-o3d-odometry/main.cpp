@@ -29,44 +29,16 @@ namespace {
 
 constexpr const char* kLog = "obm-o3d-odometry";
 
-/// The RGB-D layouts obm-map plays, opened the same way (libs/slam/src/sources.cpp): a TUM or
-/// ICL-NUIM folder that carries Open3D intrinsics (as obm-sim writes them) uses them.
+/// The RGB-D folder as obm-map opens it (RgbdSequence::open: any layout, Open3D intrinsics).
 obm::io::RgbdSequence openSequence(const std::string& input, const std::string& ground_truth,
                                    double max_time_difference, std::string& kind_name) {
-  using obm::io::DatasetKind;
-  using obm::io::RgbdSequence;
   if (!ground_truth.empty() && !fs::is_regular_file(ground_truth))
     throw obm::IoError("ground-truth file '" + ground_truth + "' does not exist");
-  const DatasetKind kind = obm::io::detectDatasetKind(input);
-  kind_name = obm::io::toString(kind);
+  kind_name = obm::io::toString(obm::io::detectDatasetKind(input));
   obm::io::RgbdSequenceOptions ro;
   ro.max_time_difference = max_time_difference;
   ro.groundtruth_path = ground_truth;
-  switch (kind) {
-    case DatasetKind::TumRgbd:
-    case DatasetKind::IclNuim: {
-      RgbdSequence seq = kind == DatasetKind::TumRgbd ? RgbdSequence::openTum(input, ro)
-                                                      : RgbdSequence::openIclNuim(input, ro);
-      for (const char* name : {"camera_intrinsic.json", "camera_primesense.json"}) {
-        const fs::path f = fs::path(seq.directory()) / name;
-        if (!fs::is_regular_file(f)) continue;
-        seq.setIntrinsics(obm::io::readOpen3dIntrinsics(f.string()));
-        OBM_LOG_INFO(kLog, "intrinsics from " << f.string());
-        break;
-      }
-      return seq;
-    }
-    case DatasetKind::SevenScenes:
-      return RgbdSequence::open7Scenes(input, ro);
-    case DatasetKind::Redwood:
-      return RgbdSequence::openRedwood(input, ro);
-    case DatasetKind::Kitti:
-    case DatasetKind::Rawlog:
-      break;
-  }
-  throw obm::IoError("input '" + input + "' is a " + kind_name +
-                     " dataset; obm-o3d-odometry needs an RGB-D folder (TUM RGB-D, ICL-NUIM, "
-                     "7-Scenes or Redwood)");
+  return obm::io::RgbdSequence::open(input, ro);
 }
 
 nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }

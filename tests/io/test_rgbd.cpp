@@ -310,6 +310,24 @@ TEST(RgbdSequence, TumFolderAssociatesByTimestamp) {
   }
   EXPECT_EQ(seq.groundTruth().size(), 4u);
 
+  // open(): the layout is detected; Open3D intrinsics in the folder override the TUM defaults.
+  EXPECT_EQ(RgbdSequence::open(dir).intrinsics().fx, 525.0);
+  writeOpen3dIntrinsics(dir + "/camera_intrinsic.json",
+                        PinholeIntrinsics{16, 12, 10.0, 11.0, 7.5, 5.5});
+  {
+    const RgbdSequence any = RgbdSequence::open(dir);
+    EXPECT_EQ(any.size(), 4u);
+    EXPECT_EQ(any.intrinsics().fy, 11.0);
+  }
+  fs::remove(dir + "/camera_intrinsic.json");
+  writeText(dir + "/not_rgbd.rawlog", "");
+  try {
+    RgbdSequence::open(dir + "/not_rgbd.rawlog");
+    FAIL() << "a rawlog is not an RGB-D folder";
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("not_rgbd.rawlog"), std::string::npos) << e.what();
+  }
+
   seq.setIntrinsics(PinholeIntrinsics{16, 12, 10.0, 10.0, 7.5, 5.5});
   const PointCloud pc = seq.cloud(1);
   EXPECT_EQ(pc.size(), 16u * 12u);

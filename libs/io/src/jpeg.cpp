@@ -1,7 +1,6 @@
 // JPEG colour images (libjpeg-turbo): the colour frames of the Redwood / Open3D RGB-D layout and of
 // many hand-held RGB-D recordings. Declared in obm/io/rgbd.hpp next to the PNG readers.
 // jpeglib.h needs size_t and FILE declared before it.
-#include <cctype>
 #include <csetjmp>
 #include <cstddef>
 #include <cstdio>
@@ -13,6 +12,7 @@
 
 #include "obm/core/errors.hpp"
 #include "obm/io/rgbd.hpp"
+#include "text_parse.hpp"
 
 namespace obm::io {
 namespace {
@@ -82,15 +82,6 @@ struct FileCloser {
   }
 };
 
-std::string lowerExtension(const std::string& path) {
-  const auto slash = path.find_last_of('/');
-  const auto dot = path.find_last_of('.');
-  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
-  std::string ext = path.substr(dot);
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
-
 }  // namespace
 
 ColorImage readColorJpeg(const std::string& path) {
@@ -119,9 +110,9 @@ ColorImage readColorJpeg(const std::string& path) {
 }
 
 ColorImage readColorImage(const std::string& path) {
-  const std::string ext = lowerExtension(path);
-  if (ext == ".png") return readColorPng(path);
-  if (ext == ".jpg" || ext == ".jpeg") return readColorJpeg(path);
+  const std::string ext = detail::lowerExtension(path);
+  if (ext == "png") return readColorPng(path);
+  if (ext == "jpg" || ext == "jpeg") return readColorJpeg(path);
   throw IoError("cannot read colour image '" + path + "': only PNG and JPEG are supported");
 }
 

@@ -17,6 +17,7 @@
 #include "obm/core/atomic_file.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
+#include "obm/io/dataset_kind.hpp"
 #include "obm/io/redwood_log.hpp"
 #include "text_lines.hpp"
 
@@ -611,6 +612,34 @@ RgbdSequence RgbdSequence::open7Scenes(const std::string& dir, const RgbdSequenc
   if (!opt.groundtruth_path.empty())
     associateGroundTruth(s.frames_, readTumTrajectory(opt.groundtruth_path), opt);
   return s;
+}
+
+RgbdSequence RgbdSequence::open(const std::string& dir, const RgbdSequenceOptions& options) {
+  const DatasetKind kind = detectDatasetKind(dir);
+  switch (kind) {
+    case DatasetKind::TumRgbd:
+    case DatasetKind::IclNuim: {
+      RgbdSequence seq = kind == DatasetKind::TumRgbd ? openTum(dir, options)
+                                                      : openIclNuim(dir, options);
+      for (const char* name : {"camera_intrinsic.json", "camera_primesense.json"}) {
+        const std::string f = joinPath(seq.directory(), name);
+        if (!fs::is_regular_file(f)) continue;
+        seq.setIntrinsics(readOpen3dIntrinsics(f));
+        OBM_LOG_INFO("io.rgbd", "intrinsics from " << f);
+        break;
+      }
+      return seq;
+    }
+    case DatasetKind::SevenScenes:
+      return open7Scenes(dir, options);
+    case DatasetKind::Redwood:
+      return openRedwood(dir, options);
+    case DatasetKind::Kitti:
+    case DatasetKind::Rawlog:
+      break;
+  }
+  throw IoError("'" + dir + "' is a " + toString(kind) +
+                " dataset, not an RGB-D folder (TUM RGB-D, ICL-NUIM, 7-Scenes or Redwood)");
 }
 
 RgbdSequence RgbdSequence::openRedwood(const std::string& dir, const RgbdSequenceOptions& opt) {

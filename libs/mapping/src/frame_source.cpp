@@ -108,16 +108,10 @@ std::unique_ptr<FrameSource> openFrameSource(const std::string& input, InputKind
     case InputKind::Kitti:
       return std::make_unique<KittiSource>(input, kitti_poses_path);
     case InputKind::TumRgbd:
-      return std::make_unique<RgbdSource>(io::RgbdSequence::openTum(input), kind, rgbd_max_depth);
     case InputKind::IclNuim:
-      return std::make_unique<RgbdSource>(io::RgbdSequence::openIclNuim(input), kind,
-                                          rgbd_max_depth);
     case InputKind::SevenScenes:
-      return std::make_unique<RgbdSource>(io::RgbdSequence::open7Scenes(input), kind,
-                                          rgbd_max_depth);
     case InputKind::Redwood:
-      return std::make_unique<RgbdSource>(io::RgbdSequence::openRedwood(input), kind,
-                                          rgbd_max_depth);
+      return std::make_unique<RgbdSource>(io::RgbdSequence::open(input), kind, rgbd_max_depth);
     case InputKind::Rawlog:
       return std::make_unique<RawlogSource>(input);
   }

@@ -117,7 +117,7 @@ AlignmentStats evaluateAlignment(const std::vector<Vector3f>& source_points,
             if (color) {
               // Coloured ICP's photometric term constrains what the geometry may leave free.
               const Eigen::Vector3d d = target.colorGradients()[j].cast<double>();
-              const double rc = target.intensity()[j] + d.dot(pt - q) - (*source_intensity)[i];
+              const double rc = target.colorResidual(j, pt, (*source_intensity)[i]);
               const double wc = icp.color_weight * prior *
                                 robustWeight(icp.kernel, rc, icp.color_kernel_scale);
               const Eigen::Vector3d ds = R.transpose() * d;

@@ -111,7 +111,7 @@ Normal evaluate(const Problem& pb, std::vector<Correspondence>& corr, const Isom
                                if (color) {
                                  const std::size_t j = std::size_t(k.target);
                                  d = pb.target.colorGradients()[j].cast<double>();
-                                 rc = pb.target.intensity()[j] + d.dot(pt - q) - (*pb.intensity)[i];
+                                 rc = pb.target.colorResidual(j, pt, (*pb.intensity)[i]);
                                  P.cost += lambda_c * pw * robustCost(kernel, rc, c_c);
                                }
                                if (!normal) continue;

@@ -173,6 +173,12 @@ const std::vector<float>& PreparedTarget::intensity() const {
 const std::vector<Vector3f>& PreparedTarget::colorGradients() const {
   return impl_->gradients;
 }
+double PreparedTarget::colorResidual(std::size_t j, const Eigen::Vector3d& x,
+                                     float source_intensity) const {
+  const auto& d = *impl_;
+  const Eigen::Vector3d q = d.cloud.points[j].cast<double>();
+  return d.intensity[j] + d.gradients[j].cast<double>().dot(x - q) - source_intensity;
+}
 const PreparedTarget::Options& PreparedTarget::options() const {
   return impl_->options;
 }

@@ -109,22 +109,12 @@ class RgbdSource : public FrameSource {
  public:
   RgbdSource(io::RgbdSequence seq, InputKind kind, const InputParams& p)
       : seq_(std::move(seq)), kind_(kind), p_(p) {
-    // TUM / ICL-NUIM layouts have no intrinsics file of their own; a folder that carries Open3D's
-    // (as obm-sim writes them for other image sizes) overrides the layout's defaults.
     // 7-Scenes' colour camera is not registered to its depth camera: pixel (u, v) of one is not
     // pixel (u, v) of the other, so its colours would be attached to the wrong points.
     if (kind == InputKind::SevenScenes && p_.rgbd_color) {
       OBM_LOG_WARN(kLog, "7-Scenes: colour is not registered to depth; frames used without colour");
       p_.rgbd_color = false;
     }
-    if (kind == InputKind::TumRgbd || kind == InputKind::IclNuim)
-      for (const char* name : {"camera_intrinsic.json", "camera_primesense.json"}) {
-        const fs::path f = fs::path(seq_.directory()) / name;
-        if (!fs::is_regular_file(f)) continue;
-        seq_.setIntrinsics(io::readOpen3dIntrinsics(f.string()));
-        OBM_LOG_INFO(kLog, "intrinsics from " << f.string());
-        break;
-      }
   }
   InputKind kind() const override { return kind_; }
   std::size_t size() const override { return seq_.size(); }
@@ -298,13 +288,10 @@ std::unique_ptr<FrameSource> openFrameSource(const std::string& input,
     case InputKind::Kitti:
       return std::make_unique<KittiSource>(input, ground_truth);
     case InputKind::TumRgbd:
-      return std::make_unique<RgbdSource>(io::RgbdSequence::openTum(input, ro), kind, params);
     case InputKind::IclNuim:
-      return std::make_unique<RgbdSource>(io::RgbdSequence::openIclNuim(input, ro), kind, params);
     case InputKind::SevenScenes:
-      return std::make_unique<RgbdSource>(io::RgbdSequence::open7Scenes(input, ro), kind, params);
     case InputKind::Redwood:
-      return std::make_unique<RgbdSource>(io::RgbdSequence::openRedwood(input, ro), kind, params);
+      return std::make_unique<RgbdSource>(io::RgbdSequence::open(input, ro), kind, params);
     case InputKind::Rawlog:
       return std::make_unique<RawlogSource>(input, ground_truth, params);
   }

@@ -161,6 +161,11 @@ class RgbdSequence {
   /// `camera_primesense.json` (or `camera_intrinsic.json`) intrinsics and `trajectory.log`
   /// camera-to-world poses, one per frame. Frame k gets k / 30 s. Depth scale 1000.
   static RgbdSequence openRedwood(const std::string& dir, const RgbdSequenceOptions& options = {});
+  /// Any of the layouts above, told apart by detectDatasetKind(). A TUM or ICL-NUIM folder that
+  /// carries Open3D intrinsics (`camera_intrinsic.json` or `camera_primesense.json`, as obm-sim
+  /// writes them for other image sizes) uses those instead of the layout's defaults. IoError naming
+  /// `dir` when it is not an RGB-D folder (a KITTI sequence, a rawlog).
+  static RgbdSequence open(const std::string& dir, const RgbdSequenceOptions& options = {});
 
   std::size_t size() const noexcept { return frames_.size(); }
   const RgbdFrame& frame(std::size_t i) const;

@@ -66,6 +66,11 @@ class PreparedTarget {
   /// Tangent-plane intensity gradient d_p [1/m] per point; zero where the normal is not trusted;
   /// empty unless hasColorGradients().
   const std::vector<Vector3f>& colorGradients() const;
+  /// Coloured ICP's photometric residual for a source point of intensity `source_intensity` that
+  /// lands at `x` (target frame) paired with target point `j`: I(q_j) + d_jᵀ(x − q_j) − I_source,
+  /// the colour the target's tangent plane predicts at x minus the source's. Needs
+  /// hasColorGradients(); its Jacobian in x is d_j (colorGradients()[j]).
+  double colorResidual(std::size_t j, const Eigen::Vector3d& x, float source_intensity) const;
 
   /// Nearest target point to `query` within `max_distance` [m]: its index and squared distance.
   /// Returns false when there is none that close.
