@@ -118,3 +118,37 @@ TEST(ModelNet, WriterRoundTrip) {
   EXPECT_FALSE(fs::exists(dir + "/bad.h5"));
   EXPECT_THROW(io::writeModelNetH5(dir + "/no/such/dir.h5", {}), IoError);
 }
+
+TEST(ModelNet, ShapeNotBackedByTheFileIsAFormatErrorBeforeAnyAllocation) {
+  // Found by tests/fuzz (scripts/fuzz.sh hdf5): a 2 kB file whose 'data' header claims a shape of
+  // 3 GB. The reader sized its buffer from the header and ran out of memory; it must compare the
+  // claim with the bytes the file stores first.
+  const std::string found =
+      std::string(OBM_SOURCE_DIR) + "/tests/fuzz/regressions/hdf5/shape_claims_3gb.h5";
+  ASSERT_TRUE(fs::exists(found));
+  expectThrowWith<FormatError>([&] { io::readModelNetH5(found); }, {found, "stores"});
+  // A second finding: a metadata entry whose size field asks HDF5 for 134 TB. The allocation
+  // fails inside the library (NULL, as from glibc), which reports it as a read error.
+  const std::string meta =
+      std::string(OBM_SOURCE_DIR) + "/tests/fuzz/regressions/hdf5/metadata_size_134tb.h5";
+  ASSERT_TRUE(fs::exists(meta));
+  EXPECT_THROW(io::readModelNetH5(meta), Error);
+
+  // The same claim made by a well-formed file: a dataset declared with a large shape and never
+  // written (HDF5 allocates its storage lazily, so the file stays small).
+  const auto dir = test::scratchDir("modelnet_unwritten");
+  const std::string p = dir + "/unwritten.h5";
+  {
+    const hid_t f = H5Fcreate(p.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    const hsize_t dims[3] = {100000, 2048, 3}, ldims[2] = {100000, 1};
+    const hid_t s = H5Screate_simple(3, dims, nullptr), ls = H5Screate_simple(2, ldims, nullptr);
+    const hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
+    H5Pset_alloc_time(dcpl, H5D_ALLOC_TIME_LATE);
+    const hid_t d = H5Dcreate2(f, "data", H5T_IEEE_F32LE, s, H5P_DEFAULT, dcpl, H5P_DEFAULT);
+    const hid_t l = H5Dcreate2(f, "label", H5T_STD_U8LE, ls, H5P_DEFAULT, dcpl, H5P_DEFAULT);
+    H5Dclose(d), H5Dclose(l), H5Pclose(dcpl), H5Sclose(s), H5Sclose(ls), H5Fclose(f);
+  }
+  EXPECT_LT(fs::file_size(p), 100000u);
+  expectThrowWith<FormatError>([&] { io::readModelNetH5(p); },
+                               {p, "'data'", "100000 x 2048 x 3", "stores 0 bytes"});
+}

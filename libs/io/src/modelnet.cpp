@@ -3,7 +3,9 @@
 #include <hdf5.h>
 
 #include <cstdio>
+#include <algorithm>
 #include <filesystem>
+#include <limits>
 
 #include "obm/core/atomic_file.hpp"
 #include "obm/core/errors.hpp"
@@ -45,9 +47,18 @@ class SilenceH5Errors {
   void* data_ = nullptr;
 };
 
+std::string shapeText(const std::vector<hsize_t>& dims) {
+  std::string s;
+  for (std::size_t i = 0; i < dims.size(); ++i) s += (i ? " x " : "") + std::to_string(dims[i]);
+  return s.empty() ? "scalar" : s;
+}
+
 struct Dataset {
   std::vector<hsize_t> dims;
   H5T_class_t type_class = H5T_NO_CLASS;
+  std::size_t element_bytes = 0;  ///< size of one stored element
+  hsize_t storage_bytes = 0;      ///< bytes the file holds for the dataset's data
+  int filters = 0;                ///< compression and other filters in its pipeline
 };
 
 /// Opens dataset `name`, checks that it exists, and returns its shape and element class.
@@ -64,13 +75,33 @@ Dataset describe(hid_t file, const std::string& path, const std::string& name) {
   d.dims.resize(static_cast<std::size_t>(rank));
   if (rank > 0) H5Sget_simple_extent_dims(space.get(), d.dims.data(), nullptr);
   d.type_class = type.ok() ? H5Tget_class(type.get()) : H5T_NO_CLASS;
+  d.element_bytes = type.ok() ? H5Tget_size(type.get()) : 0;
+  d.storage_bytes = H5Dget_storage_size(ds.get());
+  H5Id plist(H5Dget_create_plist(ds.get()), H5Pclose);
+  d.filters = plist.ok() ? std::max(0, H5Pget_nfilters(plist.get())) : 0;
   return d;
 }
 
-std::string shapeText(const std::vector<hsize_t>& dims) {
-  std::string s;
-  for (std::size_t i = 0; i < dims.size(); ++i) s += (i ? " x " : "") + std::to_string(dims[i]);
-  return s.empty() ? "scalar" : s;
+/// Checks, before anything is allocated, that the shape a dataset claims is backed by the bytes the
+/// file stores: a corrupt or hostile header can claim billions of points in a file of a few
+/// kilobytes. Uncompressed data must be all there; compressed data may be at most ~1000x smaller
+/// (deflate's limit is 1032:1). Returns the number of elements.
+std::size_t checkedElements(const Dataset& d, const std::string& path, const std::string& name) {
+  std::size_t n = 1;
+  for (const hsize_t dim : d.dims) {
+    if (dim != 0 && n > std::numeric_limits<std::size_t>::max() / 16 / dim)
+      throw FormatError(path, 0, "dataset '" + name + "' has shape " + shapeText(d.dims) +
+                                     ": too large (corrupt header?)");
+    n *= static_cast<std::size_t>(dim);
+  }
+  const std::size_t claimed = n * std::max<std::size_t>(d.element_bytes, 1);
+  const std::size_t ratio = d.filters > 0 ? 1100 : 1;
+  if (n > 0 && (d.storage_bytes == 0 || claimed / ratio > d.storage_bytes))
+    throw FormatError(path, 0, "dataset '" + name + "' has shape " + shapeText(d.dims) + " (" +
+                                   std::to_string(claimed) + " bytes) but the file stores " +
+                                   std::to_string(d.storage_bytes) +
+                                   " bytes of it (truncated or corrupt file?)");
+  return n;
 }
 
 void readAll(hid_t file, const std::string& path, const std::string& name, hid_t mem_type,
@@ -112,8 +143,10 @@ std::vector<LabeledCloud> readModelNetH5(const std::string& path, const ModelNet
   if (label.type_class != H5T_INTEGER)
     throw FormatError(path, 0, "dataset '" + options.label_dataset + "' is not integer");
 
+  const std::size_t n_xyz = checkedElements(data, path, options.data_dataset);
+  checkedElements(label, path, options.label_dataset);
   const std::size_t B = data.dims[0], N = data.dims[1];
-  std::vector<float> xyz(B * N * 3);
+  std::vector<float> xyz(n_xyz);
   std::vector<int> labels(B);
   // HDF5 converts from the stored types (float32/float64, uint8/int...) to the native ones.
   if (B > 0) {

@@ -145,8 +145,9 @@ InsertResult OccupancyMap::insert(const PointCloud& cloud_sensor,
       ++a.n;
     }
     for (const auto& [key, a] : cells) {
-      const auto mean = [&](std::uint32_t sum) {
-        return static_cast<std::uint8_t>((sum + a.n / 2) / a.n);
+      const auto n = a.n;
+      const auto mean = [n](std::uint32_t sum) {
+        return static_cast<std::uint8_t>((sum + n / 2) / n);
       };
       octomap::ColorOcTreeNode* node = m.color->search(key);
       if (!node) continue;
