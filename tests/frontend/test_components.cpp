@@ -114,6 +114,25 @@ TEST(KeyframeSelector, DistanceRotationAndFrameCountEachTrigger) {
   EXPECT_THROW(KeyframeSelector{p}, ConfigError);
 }
 
+TEST(KeyframeSelector, OverlapDropTriggersAfterTheMinimumGap) {
+  KeyframeParams p;
+  p.distance = 2.0;
+  const Isometry3d kf = pose(1, 2, 0, 30);
+  const Isometry3d near = kf * pose(0.1, 0, 0, 1);
+  // Off by default: only distance, rotation and the frame count decide.
+  EXPECT_FALSE(KeyframeSelector(p).isKeyframe(kf, near, 5, 0.3, 0.95));
+  p.overlap_drop = 0.9;
+  p.overlap_min_frames = 3;
+  const KeyframeSelector sel(p);
+  EXPECT_TRUE(sel.isKeyframe(kf, near, 3, 0.85, 0.95));   // 0.85 < 0.9 x 0.95
+  EXPECT_FALSE(sel.isKeyframe(kf, near, 3, 0.86, 0.95));  // 0.86 > 0.855
+  EXPECT_FALSE(sel.isKeyframe(kf, near, 2, 0.5, 0.95));   // the map has not taken the last one yet
+  EXPECT_FALSE(sel.isKeyframe(kf, near, 10, 0.5, 0.0));   // no recent frames to compare with
+  EXPECT_TRUE(sel.isKeyframe(kf, kf * pose(2.0, 0, 0, 0), 1, 0.95, 0.95));  // distance still counts
+  p.overlap_drop = 1.0;
+  EXPECT_THROW(p.validate(), std::exception);
+}
+
 // ---------------------------------------------------------------------------------------------
 TEST(ConstantVelocityModel, PredictsAConstantScrewMotionExactly) {
   const Isometry3d step = pose(1.2, 0.1, 0.02, 3.0, 0.5);

@@ -269,6 +269,32 @@ TEST(FrontendParts, TheLoopCloserVerifiesACandidateFarEnoughAlongThePath) {
   EXPECT_STREQ(closer.verifyStage(), "loop_icp");
 }
 
+TEST(FrontendParts, TheLoopCloserSkipsCandidatesLookingTheOtherWay) {
+  // Keyframe 1 is back at keyframe 0's place, 100 m along the path, but its optical axis (z) is
+  // turned by 150° about the vertical (y down in the optical frame): a revisit walked back.
+  auto run = [](double max_view_angle_deg) {
+    LoopClosureParams lp = everyKeyframeLoops();
+    lp.max_view_angle = max_view_angle_deg * kDegToRad;
+    const IcpMatcher icp;
+    LoopCloser closer(lp, 0.3, icp);
+    backend::Optimizer optimizer;
+    FrontendStats stats;
+    StageTimes times;
+    std::vector<LoopClosure> loops;
+    Isometry3d turned = Isometry3d::Identity();
+    turned.linear() = Eigen::AngleAxisd(150.0 * kDegToRad, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    const Isometry3d I = Isometry3d::Identity();
+    std::vector<Keyframe> kfs{keyframe(0, I, 0.0, I), keyframe(1, turned, 100.0, turned)};
+    optimizer.addNode(0, kfs[0].T_world_sensor);
+    optimizer.addNode(1, kfs[1].T_world_sensor);
+    closer.search(kfs, loops, optimizer, stats, times);
+    return stats.loop_candidates;
+  };
+  EXPECT_EQ(run(0.0), 1u);    // no bound: verified
+  EXPECT_EQ(run(160.0), 1u);  // within the bound
+  EXPECT_EQ(run(45.0), 0u);   // looking 150° apart: not a candidate
+}
+
 /// Stands in for a matcher that registers without the guess and picks the wrong one of two
 /// symmetric poses: it returns the estimate turned by 180° about z, with the scores of a perfect
 /// registration (as a street of identical facades gives one).

@@ -87,6 +87,7 @@ struct Frontend::Impl {
   FrontendParams p;
   std::unique_ptr<ScanMatcher> matcher;  // loop verification, last-resort recovery
   KeyframeSelector selector;
+  double inl_ref_before = 0.0;  ///< the tracker's recent inlier ratio before the current frame
   ConstantVelocityModel motion;
   std::mt19937_64 rng;
   backend::Optimizer optimizer;
@@ -168,7 +169,8 @@ struct Frontend::Impl {
     // its cloud into the local map (a wrong one would make the following frames consistently
     // wrong).
     if (fr.status == TrackingStatus::Tracked) {
-      if (selector.isKeyframe(keyframes.back().T_world_sensor, T, frames_since_keyframe)) {
+      if (selector.isKeyframe(keyframes.back().T_world_sensor, T, frames_since_keyframe,
+                              fr.match.inlier_ratio, inl_ref_before)) {
         addKeyframe(fr.index, sweep.timestamp, T, cropped, &fr.match, false);
         fr.keyframe = true;
       }
@@ -212,6 +214,7 @@ struct Frontend::Impl {
   void track(const PointCloud& source, const Isometry3d& T_guess, FrameResult& fr) {
     recovery.startSweep();
     const double inl_ref = tracker.recentInlierRatio();
+    inl_ref_before = inl_ref;
     const bool have_velocity = motion.count() >= 2;
     std::optional<Isometry3d> matcher_start;
     if (!have_velocity && p.tracking.start_search_matcher) matcher_start = matcherStart(source);

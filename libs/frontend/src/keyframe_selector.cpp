@@ -15,4 +15,14 @@ bool KeyframeSelector::isKeyframe(const Isometry3d& T_world_last_keyframe,
          rotationAngle(delta.linear()) >= params_.rotation;
 }
 
+bool KeyframeSelector::isKeyframe(const Isometry3d& T_world_last_keyframe,
+                                  const Isometry3d& T_world_sensor,
+                                  std::size_t frames_since_keyframe, double inlier_ratio,
+                                  double recent_inlier_ratio) const {
+  if (isKeyframe(T_world_last_keyframe, T_world_sensor, frames_since_keyframe)) return true;
+  return params_.overlap_drop > 0.0 && recent_inlier_ratio > 0.0 &&
+         frames_since_keyframe >= params_.overlap_min_frames &&
+         inlier_ratio < params_.overlap_drop * recent_inlier_ratio;
+}
+
 }  // namespace obm::frontend

@@ -1,6 +1,7 @@
 #include "loop_closer.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include "obm/core/cloud_ops.hpp"
 #include "obm/core/log.hpp"
@@ -115,7 +116,13 @@ std::vector<std::pair<double, std::size_t>> LoopCloser::candidates(
     const double radius =
         std::min(lp.max_search_radius, lp.search_radius + lp.search_radius_per_m * along);
     const double d = (cur.T_world_sensor.translation() - c.T_world_sensor.translation()).norm();
-    if (d <= radius) found.emplace_back(d, j);
+    if (d > radius) continue;
+    if (lp.max_view_angle > 0.0) {
+      const Eigen::Vector3d z_cur = cur.T_world_sensor.linear().col(2);
+      const Eigen::Vector3d z_cand = c.T_world_sensor.linear().col(2);
+      if (std::acos(std::clamp(z_cur.dot(z_cand), -1.0, 1.0)) > lp.max_view_angle) continue;
+    }
+    found.emplace_back(d, j);
   }
   std::sort(found.begin(), found.end());
   return found;

@@ -61,15 +61,20 @@ void KeyframeParams::validate() const {
   require(finite(rotation) && rotation > 0.0, "rotation_deg", "must be > 0 [deg]");
   require(finite(revisit_radius) && revisit_radius >= 0.0, "revisit_radius",
           "must be >= 0 [m] (0 = keep every keyframe cloud)");
+  require(finite(overlap_drop) && overlap_drop >= 0.0 && overlap_drop < 1.0, "overlap_drop",
+          "must be in [0, 1) (a fraction of the recent inlier ratio; 0 = off)");
 }
 
 KeyframeParams KeyframeParams::load(const ConfigNode& node) {
-  node.checkKeys({"distance", "rotation_deg", "max_frames", "revisit_radius"});
+  node.checkKeys({"distance", "rotation_deg", "max_frames", "revisit_radius", "overlap_drop",
+                  "overlap_min_frames"});
   KeyframeParams p;
   node.get("distance", p.distance);
   node.getDegAsRad("rotation_deg", p.rotation);
   node.get("max_frames", p.max_frames);
   node.get("revisit_radius", p.revisit_radius);
+  node.get("overlap_drop", p.overlap_drop);
+  node.get("overlap_min_frames", p.overlap_min_frames);
   validateAt(node, [&] { p.validate(); });
   return p;
 }
@@ -271,6 +276,8 @@ void LoopClosureParams::validate() const {
           "must be >= 0");
   require(finite(max_search_radius) && max_search_radius >= search_radius, "max_search_radius",
           "must be >= search_radius [m]");
+  require(finite(max_view_angle) && max_view_angle >= 0.0, "max_view_angle_deg",
+          "must be >= 0 [deg] (0 = no bound)");
   require(check_every >= 1, "check_every", "must be >= 1");
   require(max_candidates >= 1, "max_candidates", "must be >= 1");
   require(submap_keyframes >= 0, "submap_keyframes", "must be >= 0");
@@ -318,7 +325,8 @@ RelocalisationParams RelocalisationParams::load(const ConfigNode& node) {
 
 LoopClosureParams LoopClosureParams::load(const ConfigNode& node) {
   node.checkKeys({"enabled", "min_travel", "search_radius", "search_radius_per_m",
-                  "max_search_radius", "check_every", "max_candidates", "cooldown",
+                  "max_search_radius", "max_view_angle_deg", "check_every", "max_candidates",
+                  "cooldown",
                   "submap_keyframes", "use_descriptor", "max_descriptor_distance", "min_quality",
                   "min_inlier_ratio", "max_correction", "max_correction_rotation_deg",
                   "correction_rotation_per_m_deg", "information_scale",
@@ -330,6 +338,7 @@ LoopClosureParams LoopClosureParams::load(const ConfigNode& node) {
   node.get("search_radius", p.search_radius);
   node.get("search_radius_per_m", p.search_radius_per_m);
   node.get("max_search_radius", p.max_search_radius);
+  node.getDegAsRad("max_view_angle_deg", p.max_view_angle);
   node.get("check_every", p.check_every);
   node.get("max_candidates", p.max_candidates);
   node.get("cooldown", p.cooldown);

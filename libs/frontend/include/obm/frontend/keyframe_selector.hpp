@@ -1,7 +1,8 @@
 #pragma once
 /// \file keyframe_selector.hpp
 /// The keyframe decision: a tracked frame becomes a keyframe when the sensor has travelled
-/// `distance` or rotated `rotation` since the last keyframe, or after `max_frames` frames.
+/// `distance` or rotated `rotation` since the last keyframe, after `max_frames` frames, or when
+/// its overlap with the local map drops (`overlap_drop`: the inlier ratio against the recent ones).
 #include <cstddef>
 
 #include "obm/core/se3.hpp"
@@ -16,6 +17,11 @@ class KeyframeSelector {
   /// number of frames since it (the last keyframe itself counts 0).
   bool isKeyframe(const Isometry3d& T_world_last_keyframe, const Isometry3d& T_world_sensor,
                   std::size_t frames_since_keyframe) const;
+  /// The same, with the frame's inlier ratio against the local map and the recent frames' median
+  /// (Tracker::recentInlierRatio before this frame; 0 when there is none yet).
+  bool isKeyframe(const Isometry3d& T_world_last_keyframe, const Isometry3d& T_world_sensor,
+                  std::size_t frames_since_keyframe, double inlier_ratio,
+                  double recent_inlier_ratio) const;
   const KeyframeParams& params() const { return params_; }
 
  private:

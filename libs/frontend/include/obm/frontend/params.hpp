@@ -41,6 +41,15 @@ struct KeyframeParams {
   double distance = 4.0;               ///< [m] travelled since the last keyframe
   double rotation = 10.0 * kDegToRad;  ///< [rad] rotated since the last keyframe (YAML `_deg`)
   std::size_t max_frames = 0;          ///< at least every N tracked frames; 0 = no limit
+  /// Overlap keyframes: a tracked frame whose inlier ratio fell below this fraction of the recent
+  /// frames' median is a keyframe (at least `overlap_min_frames` after the last one), so geometry
+  /// that comes into view (a doorway, a turn towards an unmapped room) enters the local map
+  /// before the tracker's relative inlier test (tracking.relative_inlier_ratio) rejects frames
+  /// for it. 0 = off (distance, rotation and max_frames only).
+  double overlap_drop = 0.0;
+  /// Frames between two overlap keyframes: the asynchronous local map takes the new keyframe
+  /// from the third frame after it (LocalMapParams::async), and the ratio keeps falling until then.
+  std::size_t overlap_min_frames = 3;
   /// [m] Memory on revisits: a keyframe that leaves the local map within this distance of an
   /// older keyframe of an earlier pass (at least loop_closure.min_travel back along the path)
   /// that still holds its cloud drops its own cloud and place descriptor. The place is stored
@@ -232,6 +241,11 @@ struct LoopClosureParams {
   /// [m/m] the radius grows with the distance travelled since the candidate (drift allowance)
   double search_radius_per_m = 0.01;
   double max_search_radius = 30.0;  ///< [m] upper bound of the radius
+  /// [rad] (YAML `max_view_angle_deg`) Candidates whose viewing direction (the sensor's optical
+  /// axis z) differs from the current keyframe's by more than this are not verified: two RGB-D
+  /// views ~60° wide that look apart share little or nothing, and a revisit walked the other way
+  /// sees the other walls. 0 = no bound (a 360° LiDAR sees the place from any heading).
+  double max_view_angle = 0.0;
   std::size_t check_every = 2;      ///< search at every N-th keyframe (>= 1)
   std::size_t max_candidates = 2;   ///< candidates verified per search (nearest first)
   /// After an accepted loop, the next search waits this many keyframes (0 = as check_every).
