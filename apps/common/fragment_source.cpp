@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <memory>
 #include <random>
 #include <tuple>
 
@@ -22,7 +23,7 @@ RgbdFragmentOptions RgbdFragmentOptions::load(const ConfigNode& node) {
   RgbdFragmentOptions o;
   node.checkKeys({"layout", "train_sequences", "val_sequences", "test_sequences",
                   "fragment_frames", "frame_step", "test_frame_step", "stride", "min_depth", "max_depth", "voxel",
-                  "radius"});
+                  "radius", "pair_gaps"});
   node.get("layout", o.layout);
   try {
     io::parseRgbdLayout(o.layout);
@@ -41,6 +42,10 @@ RgbdFragmentOptions RgbdFragmentOptions::load(const ConfigNode& node) {
   node.get("max_depth", o.max_depth);
   node.get("voxel", o.voxel);
   node.get("radius", o.radius);
+  node.get("pair_gaps", o.pair_gaps);
+  if (!o.pair_gaps.empty() &&
+      (o.pair_gaps.size() != 2 || o.pair_gaps[0] < 1 || o.pair_gaps[1] < o.pair_gaps[0]))
+    throw ConfigError(node.where("pair_gaps") + ": expected [MIN, MAX] with 1 <= MIN <= MAX");
   if (o.train_sequences.empty())
     throw ConfigError(node.where("train_sequences") + ": no training sequence");
   if (o.fragment_frames < 1) throw ConfigError(node.where("fragment_frames") + ": must be >= 1");
@@ -243,6 +248,87 @@ std::vector<obmnet::RegistrationPair> rgbdFramePairs(const std::string& dir,
       p.name = name + ":" + std::to_string(j) + "->" + std::to_string(i);
       pairs.push_back(std::move(p));
     }
+  }
+  return pairs;
+}
+
+namespace {
+
+/// Exactly n points: a random subset, or all points plus random repeats when there are fewer.
+PointCloud exactlyN(const PointCloud& c, std::size_t n, std::mt19937_64& rng) {
+  PointCloud out = randomSubset(c, n, rng);
+  if (out.size() >= n || c.empty()) return out;
+  std::uniform_int_distribution<std::size_t> any(0, c.size() - 1);
+  while (out.size() < n) out.points.push_back(c.points[any(rng)]);
+  return out;
+}
+
+}  // namespace
+
+obmnet::PairSampler rgbdFramePairSampler(const std::string& dir,
+                                         const RgbdFragmentOptions& options, int num_points) {
+  if (options.pair_gaps.size() != 2)
+    throw ConfigError("data.rgbd.pair_gaps: expected [MIN, MAX] for RGB-D frame pairs");
+  const int min_gap = options.pair_gaps[0], max_gap = options.pair_gaps[1];
+  auto seqs = std::make_shared<std::vector<io::RgbdSequence>>();
+  std::vector<std::string> names;
+  std::vector<double> weights;
+  for (const auto& entry : options.train_sequences) {
+    const auto [layout, rel] = splitLayout(entry, options.layout);
+    const std::string path = resolve(dir, rel);
+    io::RgbdSequence seq = openSequence(path, layout);
+    if (seq.size() <= static_cast<std::size_t>(min_gap))
+      throw FormatError(path, 0,
+                        "sequence has " + std::to_string(seq.size()) +
+                            " frames, not more than the smallest pair gap " +
+                            std::to_string(min_gap));
+    weights.push_back(static_cast<double>(seq.size()));
+    names.push_back(fs::path(path).filename().string());
+    seqs->push_back(std::move(seq));
+  }
+  OBM_LOG_INFO("obm-train", "RGB-D frame pairs: " << seqs->size() << " training sequence(s), gaps "
+                                                  << min_gap << "-" << max_gap << " frames, "
+                                                  << num_points << " points per frame");
+  const auto n = static_cast<std::size_t>(num_points);
+  return [seqs, names, weights, options, min_gap, max_gap, n](std::mt19937_64& rng, int) {
+    std::discrete_distribution<std::size_t> pick(weights.begin(), weights.end());
+    const std::size_t si = pick(rng);
+    const io::RgbdSequence& seq = (*seqs)[si];
+    const int frames = static_cast<int>(seq.size());
+    const int gap =
+        std::uniform_int_distribution<int>(min_gap, std::min(max_gap, frames - 1))(rng);
+    const int i = std::uniform_int_distribution<int>(0, frames - 1 - gap)(rng);
+    const int j = i + gap;
+    auto frameCloud = [&](int f) {
+      PointCloud c = seq.cloud(static_cast<std::size_t>(f), options.min_depth, options.max_depth,
+                               options.stride);
+      if (options.voxel > 0.0) c = voxelDownsample(c, options.voxel);
+      PointCloud out = exactlyN(c, n, rng);
+      out.frame_id = "camera_" + std::to_string(f);
+      return out;
+    };
+    obmnet::RegistrationPair p;
+    p.source = frameCloud(j);
+    p.target = frameCloud(i);
+    const auto& fi = seq.frame(static_cast<std::size_t>(i));
+    const auto& fj = seq.frame(static_cast<std::size_t>(j));
+    if (fi.has_pose && fj.has_pose) p.T_target_source = fi.T_world_camera.inverse() * fj.T_world_camera;
+    p.overlap = -1.0;
+    p.name = names[si] + ":" + std::to_string(j) + "->" + std::to_string(i);
+    return p;
+  };
+}
+
+std::vector<obmnet::RegistrationPair> withPointCount(std::vector<obmnet::RegistrationPair> pairs,
+                                                    int num_points, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  const auto n = static_cast<std::size_t>(num_points);
+  for (auto& p : pairs) {
+    const std::string sf = p.source.frame_id, tf = p.target.frame_id;
+    p.source = exactlyN(p.source, n, rng);
+    p.target = exactlyN(p.target, n, rng);
+    p.source.frame_id = sf;
+    p.target.frame_id = tf;
   }
   return pairs;
 }

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "obm/obmnet/object_set.hpp"
+#include "obm/obmnet/trainer.hpp"
 
 namespace obm {
 class ConfigNode;
@@ -37,6 +38,10 @@ struct RgbdFragmentOptions {
   double max_depth = 4.0;   ///< [m] (RGB-D depth is reliable to ~4 m)
   double voxel = 0.01;      ///< [m] voxel grid of the fused fragment, before the random sample
   double radius = 0.5;      ///< fragments are scaled so that max|v − centroid| = radius (RIENet's 7Scenes protocol)
+  /// [min, max] frames between the two depth frames of a training pair (obm-train): when set,
+  /// obm-train trains on pairs of two *different* frames (rgbdFramePairSampler) instead of one
+  /// fragment cut twice; empty = fragments.
+  std::vector<int> pair_gaps;
 
   /// Reads the `rgbd:` map; unknown keys are errors naming the file.
   static RgbdFragmentOptions load(const ConfigNode& node);
@@ -62,5 +67,19 @@ std::vector<obmnet::RegistrationPair> rgbdFramePairs(const std::string& dir,
                                                      const std::vector<std::string>& sequences,
                                                      int min_gap, int max_gap, int n,
                                                      std::uint64_t seed);
+
+/// Training pairs of two different depth frames (the frame-pair counterpart of
+/// scanPairSampler): a random training sequence (weighted by its frames), a gap s from
+/// options.pair_gaps, a random first frame i, the pair (i + s → i), each frame back-projected,
+/// put on the voxel grid and sampled to exactly `num_points` (drawn again when a frame has
+/// fewer), in metres, each in its own camera frame. The sequences' poses, when present, are
+/// attached as ground truth for reporting only; the losses never see them.
+obmnet::PairSampler rgbdFramePairSampler(const std::string& dir,
+                                         const RgbdFragmentOptions& options, int num_points);
+
+/// `pairs` with each cloud sampled to exactly `num_points` from `seed` (as the sampler above
+/// does), for validation pairs that batch like the training ones.
+std::vector<obmnet::RegistrationPair> withPointCount(std::vector<obmnet::RegistrationPair> pairs,
+                                                    int num_points, std::uint64_t seed);
 
 }  // namespace obm::apps

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "../common/cli.hpp"
+#include "../common/fragment_source.hpp"
 #include "../common/object_source.hpp"
 #include "../common/scan_source.hpp"
 #include "obm/config/config_node.hpp"
@@ -123,6 +124,21 @@ int main(int argc, char** argv) {
       auto val = obm::apps::scanValidationPairs(scans, n_points, cfg.val_pairs, cfg.seed);
       std::fprintf(stderr, "[obm-train] scans: %zu validation pairs, %d points each\n", val.size(),
                    n_points);
+      trainer_ptr =
+          std::make_unique<obm::obmnet::Trainer>(cfg, std::move(sampler), std::move(val), out_dir);
+    } else if (source == "rgbd" && data.has("rgbd") &&
+               obm::apps::ObjectSourceConfig::load(data).rgbd.pair_gaps.size() == 2) {
+      // Pairs of two different depth frames (data.rgbd.pair_gaps), not fragments cut twice.
+      const auto src = obm::apps::ObjectSourceConfig::load(data);
+      const auto& o = src.rgbd;
+      const int n_points = cfg.protocol.num_points;
+      auto sampler = obm::apps::rgbdFramePairSampler(src.dir, o, n_points);
+      auto val = obm::apps::withPointCount(
+          obm::apps::rgbdFramePairs(src.dir, o, o.val_sequences, o.pair_gaps[0], o.pair_gaps[1],
+                                    cfg.val_pairs, cfg.seed),
+          n_points, cfg.seed);
+      std::fprintf(stderr, "[obm-train] RGB-D frame pairs: %zu validation pairs, %d points each\n",
+                   val.size(), n_points);
       trainer_ptr =
           std::make_unique<obm::obmnet::Trainer>(cfg, std::move(sampler), std::move(val), out_dir);
     } else {

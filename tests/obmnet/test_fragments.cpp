@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <random>
 #include <string>
 
 #include "../../apps/common/fragment_source.hpp"
@@ -103,4 +104,46 @@ TEST(RgbdFragments, LayoutPrefixAndEnvironmentVariableInTheObjectSource) {
   EXPECT_EQ(set.train.size(), 3u);  // frames 0, 2, 4
   EXPECT_EQ(set.test.size(), 5u);
   EXPECT_EQ(set.test.front().size(), 1024u);
+}
+
+TEST(RgbdFramePairs, TrainingSamplerDrawsTwoDifferentFramesOfTheGapsAtTheirPose) {
+  OBM_REQUIRE_SHARED_DATA("rgbd_open3d/trajectory.log");
+  auto o = open3dOptions();
+  o.pair_gaps = {1, 3};
+  const auto sampler = apps::rgbdFramePairSampler("", o, 1500);
+  // The ground-truth relative pose of every pair, from the trajectory, to compare with.
+  const auto all = apps::rgbdFramePairs("", o, o.train_sequences, 5, 5, 10, 0);  // every pair
+  ASSERT_EQ(all.size(), 10u);
+  std::mt19937_64 rng(3);
+  for (int k = 0; k < 8; ++k) {
+    const obmnet::RegistrationPair p = sampler(rng, 1);
+    ASSERT_EQ(p.source.size(), 1500u);
+    ASSERT_EQ(p.target.size(), 1500u);
+    // name "rgbd_open3d:j->i", j - i in [1, 3]
+    const auto arrow = p.name.find("->"), colon = p.name.find(':');
+    const int j = std::stoi(p.name.substr(colon + 1, arrow - colon - 1));
+    const int i = std::stoi(p.name.substr(arrow + 2));
+    EXPECT_GE(j - i, 1) << p.name;
+    EXPECT_LE(j - i, 3) << p.name;
+    EXPECT_EQ(p.source.frame_id, "camera_" + std::to_string(j));
+    // Independent frames: no source point coincides with a target point.
+    EXPECT_NE(p.source.points.front(), p.target.points.front());
+    bool found = false;
+    for (const auto& q : all)
+      if (q.name == p.name) {
+        found = true;
+        EXPECT_TRUE(q.T_target_source.isApprox(p.T_target_source, 1e-9)) << p.name;
+      }
+    EXPECT_TRUE(found) << p.name;
+  }
+  // Validation pairs batch like the training ones: exactly N points per cloud, names kept.
+  const auto val = apps::withPointCount(all, 700, 1);
+  for (const auto& p : val) {
+    EXPECT_EQ(p.source.size(), 700u);
+    EXPECT_EQ(p.target.size(), 700u);
+  }
+  EXPECT_EQ(val[3].name, all[3].name);
+  o.pair_gaps = {3, 2};
+  const auto node = ConfigNode::fromString("train_sequences: [a]\npair_gaps: [3, 2]\n", "d.yaml");
+  EXPECT_THROW(apps::RgbdFragmentOptions::load(node), ConfigError);
 }
