@@ -112,13 +112,20 @@ std::string resolve(const std::string& dir, const std::string& name) {
   return (fs::path(dir) / name).string();
 }
 
+/// Opens the sequence of a list entry "[LAYOUT:]PATH" (`path` receives the resolved folder).
+io::RgbdSequence openEntry(const std::string& dir, const std::string& entry,
+                           const std::string& default_layout, std::string& path) {
+  const auto [layout, rel] = splitLayout(entry, default_layout);
+  path = resolve(dir, rel);
+  return openSequence(path, layout);
+}
+
 /// Fragments of one sequence, appended to `out`.
 void addFragments(const std::string& dir, const std::string& entry, const RgbdFragmentOptions& o,
                   int frame_step, int keep_points, std::uint64_t seed,
                   std::vector<PointCloud>& out) {
-  const auto [layout, rel] = splitLayout(entry, o.layout);
-  const std::string path = resolve(dir, rel);
-  const auto seq = openSequence(path, layout);
+  std::string path;
+  const auto seq = openEntry(dir, entry, o.layout, path);
   const std::string name = fs::path(path).filename().string();
   const auto n_frames = static_cast<int>(seq.size());
   int made = 0, skipped = 0;
@@ -188,6 +195,29 @@ obmnet::ObjectSet loadRgbdFragments(const std::string& dir, const RgbdFragmentOp
   return set;
 }
 
+namespace {
+
+/// Frame i back-projected with the options' stride and depth range, on their voxel grid, in
+/// metres in its camera frame; geometry only.
+PointCloud frameGeometry(const io::RgbdSequence& seq, int i, const RgbdFragmentOptions& o) {
+  PointCloud c = seq.cloud(static_cast<std::size_t>(i), o.min_depth, o.max_depth, o.stride);
+  if (o.voxel > 0.0) c = voxelDownsample(c, o.voxel);
+  c.intensity.clear();
+  c.colors.clear();
+  return c;
+}
+
+/// Exactly n points: a random subset, or all points plus random repeats when there are fewer.
+PointCloud exactlyN(const PointCloud& c, std::size_t n, std::mt19937_64& rng) {
+  PointCloud out = randomSubset(c, n, rng);
+  if (out.size() >= n || c.empty()) return out;
+  std::uniform_int_distribution<std::size_t> any(0, c.size() - 1);
+  while (out.size() < n) out.points.push_back(c.points[any(rng)]);
+  return out;
+}
+
+}  // namespace
+
 std::vector<obmnet::RegistrationPair> rgbdFramePairs(const std::string& dir,
                                                      const RgbdFragmentOptions& options,
                                                      const std::vector<std::string>& sequences,
@@ -201,20 +231,12 @@ std::vector<obmnet::RegistrationPair> rgbdFramePairs(const std::string& dir,
   std::mt19937_64 rng(seed);
   const int per = (n + static_cast<int>(sequences.size()) - 1) / static_cast<int>(sequences.size());
   for (const auto& entry : sequences) {
-    const auto [layout, rel] = splitLayout(entry, options.layout);
-    const std::string path = resolve(dir, rel);
-    const auto seq = openSequence(path, layout);
+    std::string path;
+    const auto seq = openEntry(dir, entry, options.layout, path);
     const std::string name = fs::path(path).filename().string();
     const int frames = static_cast<int>(seq.size());
     if (frames < 2) throw FormatError(path, 0, "an RGB-D pair needs at least 2 frames");
-    auto frameCloud = [&](int i) {
-      PointCloud c = seq.cloud(static_cast<std::size_t>(i), options.min_depth, options.max_depth,
-                               options.stride);
-      if (options.voxel > 0.0) c = voxelDownsample(c, options.voxel);
-      c.intensity.clear();
-      c.colors.clear();
-      return c;
-    };
+    auto frameCloud = [&](int i) { return frameGeometry(seq, i, options); };
     // A sequence too short for the gaps (e.g. a few real frames) gives each of its pairs once.
     std::vector<std::pair<int, int>> all;
     if (frames - 1 < min_gap)
@@ -252,19 +274,6 @@ std::vector<obmnet::RegistrationPair> rgbdFramePairs(const std::string& dir,
   return pairs;
 }
 
-namespace {
-
-/// Exactly n points: a random subset, or all points plus random repeats when there are fewer.
-PointCloud exactlyN(const PointCloud& c, std::size_t n, std::mt19937_64& rng) {
-  PointCloud out = randomSubset(c, n, rng);
-  if (out.size() >= n || c.empty()) return out;
-  std::uniform_int_distribution<std::size_t> any(0, c.size() - 1);
-  while (out.size() < n) out.points.push_back(c.points[any(rng)]);
-  return out;
-}
-
-}  // namespace
-
 obmnet::PairSampler rgbdFramePairSampler(const std::string& dir,
                                          const RgbdFragmentOptions& options, int num_points) {
   if (options.pair_gaps.size() != 2)
@@ -274,9 +283,8 @@ obmnet::PairSampler rgbdFramePairSampler(const std::string& dir,
   std::vector<std::string> names;
   std::vector<double> weights;
   for (const auto& entry : options.train_sequences) {
-    const auto [layout, rel] = splitLayout(entry, options.layout);
-    const std::string path = resolve(dir, rel);
-    io::RgbdSequence seq = openSequence(path, layout);
+    std::string path;
+    io::RgbdSequence seq = openEntry(dir, entry, options.layout, path);
     if (seq.size() <= static_cast<std::size_t>(min_gap))
       throw FormatError(path, 0,
                         "sequence has " + std::to_string(seq.size()) +
@@ -300,10 +308,7 @@ obmnet::PairSampler rgbdFramePairSampler(const std::string& dir,
     const int i = std::uniform_int_distribution<int>(0, frames - 1 - gap)(rng);
     const int j = i + gap;
     auto frameCloud = [&](int f) {
-      PointCloud c = seq.cloud(static_cast<std::size_t>(f), options.min_depth, options.max_depth,
-                               options.stride);
-      if (options.voxel > 0.0) c = voxelDownsample(c, options.voxel);
-      PointCloud out = exactlyN(c, n, rng);
+      PointCloud out = exactlyN(frameGeometry(seq, f, options), n, rng);
       out.frame_id = "camera_" + std::to_string(f);
       return out;
     };

@@ -126,10 +126,9 @@ int main(int argc, char** argv) {
                    n_points);
       trainer_ptr =
           std::make_unique<obm::obmnet::Trainer>(cfg, std::move(sampler), std::move(val), out_dir);
-    } else if (source == "rgbd" && data.has("rgbd") &&
-               obm::apps::ObjectSourceConfig::load(data).rgbd.pair_gaps.size() == 2) {
+    } else if (const auto src = obm::apps::ObjectSourceConfig::load(data);
+               src.source == "rgbd" && !src.rgbd.pair_gaps.empty()) {
       // Pairs of two different depth frames (data.rgbd.pair_gaps), not fragments cut twice.
-      const auto src = obm::apps::ObjectSourceConfig::load(data);
       const auto& o = src.rgbd;
       const int n_points = cfg.protocol.num_points;
       auto sampler = obm::apps::rgbdFramePairSampler(src.dir, o, n_points);
@@ -142,7 +141,6 @@ int main(int argc, char** argv) {
       trainer_ptr =
           std::make_unique<obm::obmnet::Trainer>(cfg, std::move(sampler), std::move(val), out_dir);
     } else {
-      auto src = obm::apps::ObjectSourceConfig::load(data);
       auto set = obm::apps::loadObjectSet(src);
       std::fprintf(stderr,
                    "[obm-train] objects: %zu train, %zu val, %zu test (test never used here)\n",

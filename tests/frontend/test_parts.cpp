@@ -269,26 +269,33 @@ TEST(FrontendParts, TheLoopCloserVerifiesACandidateFarEnoughAlongThePath) {
   EXPECT_STREQ(closer.verifyStage(), "loop_icp");
 }
 
+/// One loop search of the newest of `kfs` with `matcher`; the loops it recorded and the counters.
+struct OneSearch {
+  std::vector<LoopClosure> loops;
+  FrontendStats stats;
+};
+OneSearch searchOnce(const LoopClosureParams& lp, const ScanMatcher& matcher,
+                     const std::vector<Keyframe>& kfs) {
+  LoopCloser closer(lp, 0.3, matcher);
+  backend::Optimizer optimizer;
+  StageTimes times;
+  for (const Keyframe& kf : kfs) optimizer.addNode(static_cast<backend::NodeId>(kf.id), kf.T_world_sensor);
+  OneSearch out;
+  closer.search(kfs, out.loops, optimizer, out.stats, times);
+  return out;
+}
+
 TEST(FrontendParts, TheLoopCloserSkipsCandidatesLookingTheOtherWay) {
   // Keyframe 1 is back at keyframe 0's place, 100 m along the path, but its optical axis (z) is
   // turned by 150° about the vertical (y down in the optical frame): a revisit walked back.
   auto run = [](double max_view_angle_deg) {
     LoopClosureParams lp = everyKeyframeLoops();
     lp.max_view_angle = max_view_angle_deg * kDegToRad;
-    const IcpMatcher icp;
-    LoopCloser closer(lp, 0.3, icp);
-    backend::Optimizer optimizer;
-    FrontendStats stats;
-    StageTimes times;
-    std::vector<LoopClosure> loops;
     Isometry3d turned = Isometry3d::Identity();
     turned.linear() = Eigen::AngleAxisd(150.0 * kDegToRad, Eigen::Vector3d::UnitY()).toRotationMatrix();
     const Isometry3d I = Isometry3d::Identity();
-    std::vector<Keyframe> kfs{keyframe(0, I, 0.0, I), keyframe(1, turned, 100.0, turned)};
-    optimizer.addNode(0, kfs[0].T_world_sensor);
-    optimizer.addNode(1, kfs[1].T_world_sensor);
-    closer.search(kfs, loops, optimizer, stats, times);
-    return stats.loop_candidates;
+    return searchOnce(lp, IcpMatcher(), {keyframe(0, I, 0.0, I), keyframe(1, turned, 100.0, turned)})
+        .stats.loop_candidates;
   };
   EXPECT_EQ(run(0.0), 1u);    // no bound: verified
   EXPECT_EQ(run(160.0), 1u);  // within the bound
@@ -325,18 +332,10 @@ TEST(FrontendParts, TheLoopCloserRejectsAPoseTurnedBeyondTheHeadingDrift) {
     LoopClosureParams lp = everyKeyframeLoops();
     lp.max_correction_rotation = max_rotation_deg * kDegToRad;
     lp.correction_rotation_per_m = 0.01 * kDegToRad;
-    const FlippedPoseMatcher flipped;
-    LoopCloser closer(lp, 0.3, flipped);
-    backend::Optimizer optimizer;
-    FrontendStats stats;
-    StageTimes times;
-    std::vector<LoopClosure> loops;
     const Isometry3d I = Isometry3d::Identity();
-    std::vector<Keyframe> kfs{keyframe(0, I, 0.0, I), keyframe(1, shifted(0.1), 100.0, I)};
-    optimizer.addNode(0, kfs[0].T_world_sensor);
-    optimizer.addNode(1, kfs[1].T_world_sensor);
-    closer.search(kfs, loops, optimizer, stats, times);
-    return loops;
+    return searchOnce(lp, FlippedPoseMatcher(),
+                      {keyframe(0, I, 0.0, I), keyframe(1, shifted(0.1), 100.0, I)})
+        .loops;
   };
   const std::vector<LoopClosure> bounded = run(15.0);
   ASSERT_EQ(bounded.size(), 1u);

@@ -108,6 +108,8 @@ std::vector<std::pair<double, std::size_t>> LoopCloser::candidates(
   std::vector<std::pair<double, std::size_t>> found;
   ScopedStage s(times, "loop_search");
   const Keyframe& cur = keyframes[k];
+  const Eigen::Vector3d z_cur = cur.T_world_sensor.linear().col(2);  // optical axis
+  const double min_view_cos = std::cos(lp.max_view_angle);
   for (std::size_t j = 0; j < k; ++j) {
     const Keyframe& c = keyframes[j];
     if (c.dropped) continue;  // an older keyframe stores the place
@@ -117,11 +119,8 @@ std::vector<std::pair<double, std::size_t>> LoopCloser::candidates(
         std::min(lp.max_search_radius, lp.search_radius + lp.search_radius_per_m * along);
     const double d = (cur.T_world_sensor.translation() - c.T_world_sensor.translation()).norm();
     if (d > radius) continue;
-    if (lp.max_view_angle > 0.0) {
-      const Eigen::Vector3d z_cur = cur.T_world_sensor.linear().col(2);
-      const Eigen::Vector3d z_cand = c.T_world_sensor.linear().col(2);
-      if (std::acos(std::clamp(z_cur.dot(z_cand), -1.0, 1.0)) > lp.max_view_angle) continue;
-    }
+    if (lp.max_view_angle > 0.0 && z_cur.dot(c.T_world_sensor.linear().col(2)) < min_view_cos)
+      continue;
     found.emplace_back(d, j);
   }
   std::sort(found.begin(), found.end());
