@@ -23,7 +23,7 @@ RgbdFragmentOptions RgbdFragmentOptions::load(const ConfigNode& node) {
   RgbdFragmentOptions o;
   node.checkKeys({"layout", "train_sequences", "val_sequences", "test_sequences",
                   "fragment_frames", "frame_step", "test_frame_step", "stride", "min_depth", "max_depth", "voxel",
-                  "radius", "pair_gaps"});
+                  "radius", "pair_gaps", "pose_labels"});
   node.get("layout", o.layout);
   try {
     io::parseRgbdLayout(o.layout);
@@ -43,6 +43,13 @@ RgbdFragmentOptions RgbdFragmentOptions::load(const ConfigNode& node) {
   node.get("voxel", o.voxel);
   node.get("radius", o.radius);
   node.get("pair_gaps", o.pair_gaps);
+  node.get("pose_labels", o.pose_labels);
+  if (o.pose_labels.find('/') != std::string::npos)
+    throw ConfigError(node.where("pose_labels") + ": '" + o.pose_labels +
+                      "' is a file name inside each training sequence folder, not a path");
+  if (!o.pose_labels.empty() && o.pair_gaps.empty())
+    throw ConfigError(node.where("pose_labels") +
+                      ": pose labels train frame pairs only; set pair_gaps too");
   if (!o.pair_gaps.empty() &&
       (o.pair_gaps.size() != 2 || o.pair_gaps[0] < 1 || o.pair_gaps[1] < o.pair_gaps[0]))
     throw ConfigError(node.where("pair_gaps") + ": expected [MIN, MAX] with 1 <= MIN <= MAX");
@@ -61,21 +68,6 @@ RgbdFragmentOptions RgbdFragmentOptions::load(const ConfigNode& node) {
 }
 
 namespace {
-
-io::RgbdSequence openSequence(const std::string& path, io::RgbdLayout layout) {
-  if (!fs::is_directory(path)) throw IoError(path + ": RGB-D sequence folder not found");
-  switch (layout) {
-    case io::RgbdLayout::IclNuim:
-      return io::RgbdSequence::openIclNuim(path);
-    case io::RgbdLayout::SevenScenes:
-      return io::RgbdSequence::open7Scenes(path);
-    case io::RgbdLayout::Redwood:
-      return io::RgbdSequence::openRedwood(path);
-    case io::RgbdLayout::Tum:
-      break;
-  }
-  return io::RgbdSequence::openTum(path);
-}
 
 /// A sequence entry "[LAYOUT:]PATH": the layout prefix overrides the default layout.
 std::pair<io::RgbdLayout, std::string> splitLayout(const std::string& entry,
@@ -114,10 +106,22 @@ std::string resolve(const std::string& dir, const std::string& name) {
 
 /// Opens the sequence of a list entry "[LAYOUT:]PATH" (`path` receives the resolved folder).
 io::RgbdSequence openEntry(const std::string& dir, const std::string& entry,
-                           const std::string& default_layout, std::string& path) {
+                           const std::string& default_layout, std::string& path,
+                           const std::string& pose_labels = "") {
   const auto [layout, rel] = splitLayout(entry, default_layout);
   path = resolve(dir, rel);
-  return openSequence(path, layout);
+  io::RgbdSequenceOptions so;
+  if (!pose_labels.empty()) {
+    // The labels take the place of the ground truth: the mapping app's trajectory of this
+    // sequence, associated with the depth frames by time stamp as a ground-truth file would be.
+    so.groundtruth_path = (fs::path(path) / pose_labels).string();
+    if (!fs::is_regular_file(so.groundtruth_path))
+      throw IoError(so.groundtruth_path +
+                    ": pose labels (data.rgbd.pose_labels) not found; write them with "
+                    "scripts/make_indoor_training_data.sh OUT_DIR BUILD_DIR labels");
+  }
+  if (!fs::is_directory(path)) throw IoError(path + ": RGB-D sequence folder not found");
+  return io::RgbdSequence::open(path, layout, so);
 }
 
 /// Fragments of one sequence, appended to `out`.
@@ -284,7 +288,14 @@ obmnet::PairSampler rgbdFramePairSampler(const std::string& dir,
   std::vector<double> weights;
   for (const auto& entry : options.train_sequences) {
     std::string path;
-    io::RgbdSequence seq = openEntry(dir, entry, options.layout, path);
+    io::RgbdSequence seq = openEntry(dir, entry, options.layout, path, options.pose_labels);
+    if (!options.pose_labels.empty()) {
+      std::size_t posed = 0;
+      for (std::size_t f = 0; f < seq.size(); ++f) posed += seq.frame(f).has_pose ? 1 : 0;
+      if (posed < seq.size())
+        OBM_LOG_WARN("obm-train", path << ": " << seq.size() - posed << " of " << seq.size()
+                                       << " frames have no pose label; their pairs are skipped");
+    }
     if (seq.size() <= static_cast<std::size_t>(min_gap))
       throw FormatError(path, 0,
                         "sequence has " + std::to_string(seq.size()) +
@@ -303,10 +314,18 @@ obmnet::PairSampler rgbdFramePairSampler(const std::string& dir,
     const std::size_t si = pick(rng);
     const io::RgbdSequence& seq = (*seqs)[si];
     const int frames = static_cast<int>(seq.size());
-    const int gap =
-        std::uniform_int_distribution<int>(min_gap, std::min(max_gap, frames - 1))(rng);
-    const int i = std::uniform_int_distribution<int>(0, frames - 1 - gap)(rng);
-    const int j = i + gap;
+    const bool labelled = !options.pose_labels.empty();
+    int i = 0, j = 0;
+    // With labels, a pair of two labelled frames (frames the mapping app lost carry none).
+    for (int attempt = 0; attempt < 64; ++attempt) {
+      const int gap =
+          std::uniform_int_distribution<int>(min_gap, std::min(max_gap, frames - 1))(rng);
+      i = std::uniform_int_distribution<int>(0, frames - 1 - gap)(rng);
+      j = i + gap;
+      if (!labelled || (seq.frame(static_cast<std::size_t>(i)).has_pose &&
+                        seq.frame(static_cast<std::size_t>(j)).has_pose))
+        break;
+    }
     auto frameCloud = [&](int f) {
       PointCloud out = exactlyN(frameGeometry(seq, f, options), n, rng);
       out.frame_id = "camera_" + std::to_string(f);
@@ -317,7 +336,17 @@ obmnet::PairSampler rgbdFramePairSampler(const std::string& dir,
     p.target = frameCloud(i);
     const auto& fi = seq.frame(static_cast<std::size_t>(i));
     const auto& fj = seq.frame(static_cast<std::size_t>(j));
-    if (fi.has_pose && fj.has_pose) p.T_target_source = fi.T_world_camera.inverse() * fj.T_world_camera;
+    if (fi.has_pose && fj.has_pose) {
+      p.T_target_source = fi.T_world_camera.inverse() * fj.T_world_camera;
+      if (labelled) {
+        // Opened on its pose labels: the pose is the mapping app's estimate, not ground truth.
+        p.has_pose_label = true;
+        p.T_target_source_label = p.T_target_source;
+      }
+    } else if (labelled) {
+      throw FormatError(names[si], 0, "no pair of labelled frames found in 64 draws: are the pose "
+                                      "labels (data.rgbd.pose_labels) of this sequence nearly empty?");
+    }
     p.overlap = -1.0;
     p.name = names[si] + ":" + std::to_string(j) + "->" + std::to_string(i);
     return p;

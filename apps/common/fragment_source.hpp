@@ -42,6 +42,11 @@ struct RgbdFragmentOptions {
   /// obm-train trains on pairs of two *different* frames (rgbdFramePairSampler) instead of one
   /// fragment cut twice; empty = fragments.
   std::vector<int> pair_gaps;
+  /// Self-supervised pose labels of the frame pairs: a TUM trajectory file name (e.g.
+  /// slam_groundtruth.txt) in each *training* sequence folder, written by obm-map on that
+  /// sequence; read in place of the ground truth, it gives each pair the label of the pose loss
+  /// L_p (train.pose_loss_weight). Empty = no labels (unsupervised). Needs pair_gaps.
+  std::string pose_labels;
 
   /// Reads the `rgbd:` map; unknown keys are errors naming the file.
   static RgbdFragmentOptions load(const ConfigNode& node);

@@ -55,31 +55,9 @@ std::size_t kittiToTum(const std::string& seq_dir, const std::string& out_tum, K
   return traj.size();
 }
 
-RgbdLayout parseRgbdLayout(const std::string& name) {
-  const std::string n = detail::toLower(name);
-  if (n == "tum") return RgbdLayout::Tum;
-  if (n == "iclnuim" || n == "icl-nuim") return RgbdLayout::IclNuim;
-  if (n == "7scenes" || n == "7-scenes") return RgbdLayout::SevenScenes;
-  if (n == "redwood") return RgbdLayout::Redwood;
-  throw ConfigError("unknown RGB-D layout '" + name +
-                    "' (expected tum, iclnuim, 7scenes or redwood)");
-}
-
 std::size_t rgbdToRawlog(const std::string& dir, const std::string& out_rawlog,
                          const RgbdToRawlogOptions& options, const ConvertProgress& progress) {
-  const RgbdSequence seq = [&] {
-    switch (options.layout) {
-      case RgbdLayout::IclNuim:
-        return RgbdSequence::openIclNuim(dir, options.sequence);
-      case RgbdLayout::SevenScenes:
-        return RgbdSequence::open7Scenes(dir, options.sequence);
-      case RgbdLayout::Redwood:
-        return RgbdSequence::openRedwood(dir, options.sequence);
-      case RgbdLayout::Tum:
-        break;
-    }
-    return RgbdSequence::openTum(dir, options.sequence);
-  }();
+  const RgbdSequence seq = RgbdSequence::open(dir, options.layout, options.sequence);
   const auto idx =
       selectFrames(seq.size(), options.first, options.count, options.stride, "rgbdToRawlog");
   RawlogWriter writer(out_rawlog, options.compression_level);

@@ -20,6 +20,7 @@
 #include "obm/io/dataset_kind.hpp"
 #include "obm/io/redwood_log.hpp"
 #include "text_lines.hpp"
+#include "text_parse.hpp"
 
 namespace obm::io {
 namespace fs = std::filesystem;
@@ -614,13 +615,24 @@ RgbdSequence RgbdSequence::open7Scenes(const std::string& dir, const RgbdSequenc
   return s;
 }
 
-RgbdSequence RgbdSequence::open(const std::string& dir, const RgbdSequenceOptions& options) {
-  const DatasetKind kind = detectDatasetKind(dir);
-  switch (kind) {
-    case DatasetKind::TumRgbd:
-    case DatasetKind::IclNuim: {
-      RgbdSequence seq = kind == DatasetKind::TumRgbd ? openTum(dir, options)
-                                                      : openIclNuim(dir, options);
+RgbdLayout parseRgbdLayout(const std::string& name) {
+  const std::string n = detail::toLower(name);
+  if (n == "tum") return RgbdLayout::Tum;
+  if (n == "iclnuim" || n == "icl-nuim") return RgbdLayout::IclNuim;
+  if (n == "7scenes" || n == "7-scenes") return RgbdLayout::SevenScenes;
+  if (n == "redwood") return RgbdLayout::Redwood;
+  throw ConfigError("unknown RGB-D layout '" + name +
+                    "' (expected tum, iclnuim, 7scenes or redwood)");
+}
+
+RgbdSequence RgbdSequence::open(const std::string& dir, RgbdLayout layout,
+                                const RgbdSequenceOptions& options) {
+  switch (layout) {
+    case RgbdLayout::Tum:
+    case RgbdLayout::IclNuim: {
+      RgbdSequence seq =
+          layout == RgbdLayout::Tum ? openTum(dir, options) : openIclNuim(dir, options);
+      // obm-sim (and Open3D) write the intrinsics next to the images for other cameras.
       for (const char* name : {"camera_intrinsic.json", "camera_primesense.json"}) {
         const std::string f = joinPath(seq.directory(), name);
         if (!fs::is_regular_file(f)) continue;
@@ -630,16 +642,30 @@ RgbdSequence RgbdSequence::open(const std::string& dir, const RgbdSequenceOption
       }
       return seq;
     }
-    case DatasetKind::SevenScenes:
+    case RgbdLayout::SevenScenes:
       return open7Scenes(dir, options);
-    case DatasetKind::Redwood:
+    case RgbdLayout::Redwood:
       return openRedwood(dir, options);
+  }
+  throw ContractError("RgbdSequence::open: unknown layout");
+}
+
+RgbdSequence RgbdSequence::open(const std::string& dir, const RgbdSequenceOptions& options) {
+  switch (detectDatasetKind(dir)) {
+    case DatasetKind::TumRgbd:
+      return open(dir, RgbdLayout::Tum, options);
+    case DatasetKind::IclNuim:
+      return open(dir, RgbdLayout::IclNuim, options);
+    case DatasetKind::SevenScenes:
+      return open(dir, RgbdLayout::SevenScenes, options);
+    case DatasetKind::Redwood:
+      return open(dir, RgbdLayout::Redwood, options);
     case DatasetKind::Kitti:
     case DatasetKind::Rawlog:
-      break;
+      throw IoError("'" + dir + "' is a " + toString(detectDatasetKind(dir)) +
+                    " dataset, not an RGB-D folder (TUM RGB-D, ICL-NUIM, 7-Scenes or Redwood)");
   }
-  throw IoError("'" + dir + "' is a " + toString(kind) +
-                " dataset, not an RGB-D folder (TUM RGB-D, ICL-NUIM, 7-Scenes or Redwood)");
+  throw ContractError("RgbdSequence::open: unknown dataset kind");
 }
 
 RgbdSequence RgbdSequence::openRedwood(const std::string& dir, const RgbdSequenceOptions& opt) {

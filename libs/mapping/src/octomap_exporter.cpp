@@ -9,18 +9,19 @@
 #include <optional>
 #include <sstream>
 
-#include "frame_source.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
 #include "obm/core/progress.hpp"
 #include "obm/core/timer.hpp"
+#include "obm/io/dataset_kind.hpp"
+#include "obm/io/frame_stream.hpp"
 #include "obm/io/kitti.hpp"
 #include "obm/io/trajectory.hpp"
 
 namespace obm::mapping {
 
 namespace fs = std::filesystem;
-using detail::InputKind;
+using InputKind = io::DatasetKind;
 
 namespace {
 
@@ -144,10 +145,14 @@ ExportSummary OctomapExporter::run() {
 
   // A KITTI folder checks a KITTI trajectory against its scans itself (count, line format).
   const bool kitti_traj = detected == TrajectoryFormat::Kitti;
-  std::unique_ptr<detail::FrameSource> source = detail::openFrameSource(
-      opt_.input, kind, kind == InputKind::Kitti && kitti_traj ? sum.trajectory_path : "",
-      opt_.rgbd_max_depth);
-  sum.frames = source->size();
+  io::FrameStreamOptions so;
+  so.ground_truth = kind == InputKind::Kitti && kitti_traj ? sum.trajectory_path : "";
+  so.depth_max = opt_.rgbd_max_depth;
+  so.rgbd_color = opt_.color;
+  so.log_component = kLog;
+  std::unique_ptr<io::FrameStream> source = io::FrameStream::open(opt_.input, so);
+  const std::vector<double> stamps = source->timestamps();
+  sum.frames = stamps.size();
 
   // ---- 2. A pose (of the cloud's frame) per frame, or none.
   std::vector<std::optional<Isometry3d>> pose(sum.frames);
@@ -164,7 +169,7 @@ ExportSummary OctomapExporter::run() {
     for (std::size_t i = 0; i < poses.size(); ++i) pose[i] = poses[i];
   } else {
     const io::Trajectory traj = io::readTumTrajectory(sum.trajectory_path);
-    const auto matches = io::associateTimestamps(source->timestamps(), io::timestampsOf(traj),
+    const auto matches = io::associateTimestamps(stamps, io::timestampsOf(traj),
                                                  opt_.max_time_difference, opt_.time_offset);
     for (const auto& m : matches) pose[m.first] = traj[m.second].T;
     if (matches.empty()) {
@@ -180,7 +185,7 @@ ExportSummary OctomapExporter::run() {
       std::ostringstream msg;
       msg << "no pose time stamp is within " << opt_.max_time_difference << " s of a frame of '"
           << opt_.input << "' (" << traj.size() << " poses at " << range(io::timestampsOf(traj))
-          << "; " << sum.frames << " frames at " << range(source->timestamps())
+          << "; " << sum.frames << " frames at " << range(stamps)
           << "; see --max-dt, --time-offset)";
       throw FormatError(sum.trajectory_path, 0, msg.str());
     }
@@ -201,14 +206,23 @@ ExportSummary OctomapExporter::run() {
   std::optional<OccupancyMap> map;
   Timer integrate;
   ProgressBar bar(selected.size(), "octomap", "scans");
+  std::size_t next_frame = 0;
   bar.setEnabled(opt_.progress);
   for (std::size_t k = 0; k < selected.size(); ++k) {
     if (opt_.cancel && opt_.cancel->load()) {
       sum.interrupted = true;
       break;
     }
+    // The stream moves forward only: past the frames that are not integrated, to frame i.
     const std::size_t i = selected[k];
-    const PointCloud cloud = source->cloud(i, opt_.color);
+    for (; next_frame < i; ++next_frame)
+      if (!source->skip())
+        throw FormatError(opt_.input, 0, "frame " + std::to_string(next_frame) + " vanished while reading");
+    PointCloud cloud;
+    if (!source->next(cloud))
+      throw FormatError(opt_.input, 0, "frame " + std::to_string(i) + " vanished while reading");
+    ++next_frame;
+    if (cloud.empty()) continue;  // unreadable (named in a warning, counted)
     if (!map) {
       const bool color = opt_.color && cloud.hasColors();
       map.emplace(opt_.mapping, color ? MapKind::Color : MapKind::Occupancy);
@@ -226,6 +240,9 @@ ExportSummary OctomapExporter::run() {
     }
   }
   bar.finish();
+  sum.read_errors = source->readErrors();
+  if (sum.read_errors > 0)
+    OBM_LOG_WARN(kLog, sum.read_errors << " frame(s) could not be read and were skipped");
   if (!map) map.emplace(opt_.mapping, MapKind::Occupancy);
   sum.integrate_s = integrate.seconds();
   sum.color = map->kind() == MapKind::Color;

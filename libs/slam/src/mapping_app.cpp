@@ -21,16 +21,32 @@
 #include "obm/core/timer.hpp"
 #include "obm/eval/kitti_odometry.hpp"
 #include "obm/eval/trajectory_metrics.hpp"
+#include "obm/io/frame_stream.hpp"
 #include "obm/io/kitti.hpp"
 #include "obm/io/trajectory.hpp"
 #include "obm/registration/confidence.hpp"
-#include "sources.hpp"
 
 namespace fs = std::filesystem;
 
 namespace obm::slam {
 
 namespace {
+
+/// The reader's options for the `input:` parameters; `ground_truth` overrides the layout's own.
+io::FrameStreamOptions streamOptions(const InputParams& p, const std::string& ground_truth) {
+  io::FrameStreamOptions o;
+  o.ground_truth = ground_truth;
+  o.rgbd_stride = p.rgbd_stride;
+  o.rgbd_color = p.rgbd_color;
+  o.rgbd_edge_jump = p.rgbd_edge_jump;
+  o.depth_min = p.depth_min;
+  o.depth_max = p.depth_max;
+  o.max_time_difference = p.max_time_difference;
+  o.sensor_label = p.sensor_label;
+  o.velodyne_min_range = p.velodyne_min_range;
+  o.log_component = "obm-map";
+  return o;
+}
 
 /// The text of a double-quoted CSV field: quotes doubled.
 std::string csvQuoted(const std::string& s) {
@@ -70,7 +86,7 @@ void checkWritable(const std::string& dir) {
 }
 
 TrajectoryMetrics computeMetrics(const std::vector<Isometry3d>& est_all,
-                                 const detail::GroundTruth& gt, const io::KittiCalib* calib) {
+                                 const io::FrameGroundTruth& gt, const io::KittiCalib* calib) {
   TrajectoryMetrics m;
   eval::PoseList est, ref;
   for (std::size_t i = 0; i < est_all.size() && i < gt.T_world_body.size(); ++i) {
@@ -122,7 +138,7 @@ std::string fmt(double v, int precision = 3) {
 /// frames and their order are the source's: only one thread uses the source at a time.
 class FramePrefetcher {
  public:
-  explicit FramePrefetcher(detail::FrameSource& source) : source_(source) {}
+  explicit FramePrefetcher(io::FrameStream& source) : source_(source) {}
   ~FramePrefetcher() { wait(); }
   /// Waits for a pending read (its frame is dropped): the source is the caller's again.
   void wait() {
@@ -150,7 +166,7 @@ class FramePrefetcher {
   }
 
  private:
-  detail::FrameSource& source_;
+  io::FrameStream& source_;
   std::future<std::pair<bool, PointCloud>> pending_;
 };
 
@@ -201,7 +217,7 @@ RunSummary MappingApp::run() {
 
   // Everything that can be checked is checked before the first frame: the input and the model
   // first, so that a run failing on them does not leave an empty output folder behind.
-  auto source = detail::openFrameSource(options_.input, options_.ground_truth, cfg.input);
+  auto source = io::FrameStream::open(options_.input, streamOptions(cfg.input, options_.ground_truth));
   sum.input_kind = io::toString(source->kind());
   sum.frames_total = source->size();
   if (options_.max_frames > 0 && sum.frames_total > 0)
@@ -341,7 +357,7 @@ RunSummary MappingApp::run() {
   }
 
   // Ground truth and metrics.
-  const detail::GroundTruth gt = source->groundTruth(stamps, cfg.input.max_time_difference);
+  const io::FrameGroundTruth gt = source->groundTruth(stamps, cfg.input.max_time_difference);
   sum.ground_truth = gt.path;
   std::vector<Isometry3d> gt_plot;  // ground truth in the estimate's world frame, for the picture
   std::vector<double> ate_errors, ate_distance;  // per evaluated frame, for the report

@@ -50,13 +50,6 @@ enum class KittiPoseFrame {
 std::size_t kittiToTum(const std::string& seq_dir, const std::string& out_tum, KittiPoseFrame frame,
                        const std::string& poses_path = "", double time_offset = 0.0);
 
-/// Folder layouts rgbdToRawlog() can open.
-enum class RgbdLayout { Tum, IclNuim, SevenScenes, Redwood };
-
-/// Parses "tum", "iclnuim" (or "icl-nuim"), "7scenes" (or "7-scenes"), "redwood"; throws
-/// ConfigError naming the accepted values otherwise.
-RgbdLayout parseRgbdLayout(const std::string& name);
-
 /// Options of rgbdToRawlog().
 struct RgbdToRawlogOptions {
   RgbdLayout layout = RgbdLayout::Tum;

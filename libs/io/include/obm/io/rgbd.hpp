@@ -121,6 +121,13 @@ struct RgbdFrame {
   Isometry3d T_world_camera = Isometry3d::Identity();  ///< ground truth, camera-to-world
 };
 
+/// The RGB-D folder layouts (RgbdSequence::open with a layout, rgbdToRawlog).
+enum class RgbdLayout { Tum, IclNuim, SevenScenes, Redwood };
+
+/// Parses "tum", "iclnuim" (or "icl-nuim"), "7scenes" (or "7-scenes"), "redwood"; throws
+/// ConfigError naming the accepted values otherwise.
+RgbdLayout parseRgbdLayout(const std::string& name);
+
 /// Options of the sequence readers.
 struct RgbdSequenceOptions {
   /// [s] association window between depth, colour and ground-truth time stamps (strict bound, as
@@ -166,6 +173,11 @@ class RgbdSequence {
   /// writes them for other image sizes) uses those instead of the layout's defaults. IoError naming
   /// `dir` when it is not an RGB-D folder (a KITTI sequence, a rawlog).
   static RgbdSequence open(const std::string& dir, const RgbdSequenceOptions& options = {});
+  /// A folder of a layout named by the caller (a configuration, a command line) rather than
+  /// detected: the layout's factory above, and for TUM and ICL-NUIM the Open3D intrinsics file
+  /// when the folder carries one, as open(dir) does.
+  static RgbdSequence open(const std::string& dir, RgbdLayout layout,
+                           const RgbdSequenceOptions& options = {});
 
   std::size_t size() const noexcept { return frames_.size(); }
   const RgbdFrame& frame(std::size_t i) const;

@@ -77,6 +77,7 @@ struct ExportSummary {
   std::size_t frames_with_pose = 0;                             ///< frames that have a pose
   std::size_t frames_selected = 0;  ///< with a pose and picked by `every`
   std::size_t frames_integrated = 0;
+  std::size_t read_errors = 0;  ///< selected frames that could not be read (skipped, each named in a warning)
   std::size_t points = 0;    ///< points of the integrated frames
   std::size_t rays = 0;      ///< points handed to the ray caster (after the pre-filter)
   std::size_t beams = 0;     ///< beams cast (one per distinct end cell with discretize)

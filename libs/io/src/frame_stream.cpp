@@ -1,5 +1,6 @@
-#include "sources.hpp"
+#include "obm/io/frame_stream.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -14,11 +15,9 @@
 
 namespace fs = std::filesystem;
 
-namespace obm::slam::detail {
+namespace obm::io {
 
 namespace {
-
-constexpr const char* kLog = "obm-map";
 
 /// Number of numbers on the first non-comment line of a trajectory file (12 = KITTI, 8 = TUM).
 std::size_t columnsOfFirstPose(const std::string& path) {
@@ -47,18 +46,18 @@ std::size_t columnsOfFirstPose(const std::string& path) {
 
 /// A trajectory file as per-frame ground truth: KITTI files are index-aligned, TUM files are
 /// associated by time stamp.
-GroundTruth groundTruthFromFile(const std::string& path, const std::vector<double>& timestamps,
+FrameGroundTruth groundTruthFromFile(const std::string& path, const std::vector<double>& timestamps,
                                 double max_dt) {
-  GroundTruth gt;
+  FrameGroundTruth gt;
   gt.path = path;
   gt.T_world_body.assign(timestamps.size(), std::nullopt);
   if (columnsOfFirstPose(path) == 12) {
-    const auto poses = io::readKittiTrajectory(path);
+    const auto poses = readKittiTrajectory(path);
     for (std::size_t i = 0; i < timestamps.size() && i < poses.size(); ++i)
       gt.T_world_body[i] = poses[i];
   } else {
-    const io::Trajectory traj = io::readTumTrajectory(path);
-    const auto matches = io::associateTimestamps(timestamps, io::timestampsOf(traj), max_dt);
+    const Trajectory traj = readTumTrajectory(path);
+    const auto matches = associateTimestamps(timestamps, timestampsOf(traj), max_dt);
     for (const auto& m : matches) gt.T_world_body[m.first] = traj[m.second].T;
   }
   return gt;
@@ -66,11 +65,18 @@ GroundTruth groundTruthFromFile(const std::string& path, const std::vector<doubl
 
 // --- KITTI -----------------------------------------------------------------------------------
 
-class KittiSource : public FrameSource {
+class KittiSource : public FrameStream {
  public:
-  KittiSource(const std::string& dir, const std::string& gt) : seq_(dir, gt) {}
-  InputKind kind() const override { return InputKind::Kitti; }
+  KittiSource(const std::string& dir, const FrameStreamOptions& p)
+      : seq_(dir, p.ground_truth), p_(p) {}
+  DatasetKind kind() const override { return DatasetKind::Kitti; }
   std::size_t size() const override { return seq_.size(); }
+  std::vector<double> timestamps() const override { return seq_.timestamps(); }
+  bool skip() override {
+    if (i_ >= seq_.size()) return false;
+    ++i_;
+    return true;
+  }
   bool next(PointCloud& cloud) override {
     if (i_ >= seq_.size()) return false;
     try {
@@ -78,7 +84,7 @@ class KittiSource : public FrameSource {
     } catch (const Error& e) {
       // A corrupt scan file is a counted skip: the front-end bridges an empty sweep.
       ++read_errors_;
-      OBM_LOG_WARN(kLog, "frame " << i_ << ": " << e.what() << " (skipped)");
+      OBM_LOG_WARN(p_.log_component.c_str(), "frame " << i_ << ": " << e.what() << " (skipped)");
       cloud = PointCloud();
       cloud.frame_id = "velodyne";
     }
@@ -86,9 +92,9 @@ class KittiSource : public FrameSource {
     ++i_;
     return true;
   }
-  const io::KittiCalib* kittiCalib() const override { return &seq_.calib(); }
-  GroundTruth groundTruth(const std::vector<double>& timestamps, double) const override {
-    GroundTruth gt;
+  const KittiCalib* kittiCalib() const override { return &seq_.calib(); }
+  FrameGroundTruth groundTruth(const std::vector<double>& timestamps, double) const override {
+    FrameGroundTruth gt;
     gt.T_world_body.assign(timestamps.size(), std::nullopt);
     if (!seq_.hasGroundTruth()) return gt;
     gt.path = seq_.groundTruthPath();
@@ -99,25 +105,44 @@ class KittiSource : public FrameSource {
   }
 
  private:
-  io::KittiSequence seq_;
+  KittiSequence seq_;
+  FrameStreamOptions p_;
   std::size_t i_ = 0;
 };
 
 // --- RGB-D -----------------------------------------------------------------------------------
 
-class RgbdSource : public FrameSource {
+class RgbdSource : public FrameStream {
  public:
-  RgbdSource(io::RgbdSequence seq, InputKind kind, const InputParams& p)
+  RgbdSource(RgbdSequence seq, DatasetKind kind, const FrameStreamOptions& p)
       : seq_(std::move(seq)), kind_(kind), p_(p) {
     // 7-Scenes' colour camera is not registered to its depth camera: pixel (u, v) of one is not
     // pixel (u, v) of the other, so its colours would be attached to the wrong points.
-    if (kind == InputKind::SevenScenes && p_.rgbd_color) {
-      OBM_LOG_WARN(kLog, "7-Scenes: colour is not registered to depth; frames used without colour");
+    if (kind == DatasetKind::SevenScenes && p_.rgbd_color) {
+      OBM_LOG_WARN(p_.log_component.c_str(), "7-Scenes: colour is not registered to depth; frames used without colour");
+      p_.rgbd_color = false;
+    }
+    if (p_.rgbd_color && std::none_of(seq_.frames().begin(), seq_.frames().end(),
+                                      [](const RgbdFrame& f) { return !f.color_path.empty(); })) {
+      OBM_LOG_WARN(p_.log_component.c_str(), seq_.directory()
+                                                 << ": no frame has a colour image; frames used "
+                                                    "without colour");
       p_.rgbd_color = false;
     }
   }
-  InputKind kind() const override { return kind_; }
+  DatasetKind kind() const override { return kind_; }
   std::size_t size() const override { return seq_.size(); }
+  std::vector<double> timestamps() const override {
+    std::vector<double> t;
+    t.reserve(seq_.size());
+    for (const auto& f : seq_.frames()) t.push_back(f.timestamp);
+    return t;
+  }
+  bool skip() override {
+    if (i_ >= seq_.size()) return false;
+    ++i_;
+    return true;
+  }
   bool next(PointCloud& cloud) override {
     if (i_ >= seq_.size()) return false;
     const double max_depth =
@@ -125,7 +150,7 @@ class RgbdSource : public FrameSource {
     try {
       bool color = p_.rgbd_color && !seq_.frame(i_).color_path.empty();
       if (p_.rgbd_color && !color)
-        OBM_LOG_WARN(kLog, "frame " << i_ << ": no colour image (used without colour)");
+        OBM_LOG_WARN(p_.log_component.c_str(), "frame " << i_ << ": no colour image (used without colour)");
       if (color) {
         try {
           cloud = seq_.cloud(i_, p_.depth_min, max_depth, p_.rgbd_stride, true,
@@ -133,7 +158,7 @@ class RgbdSource : public FrameSource {
         } catch (const Error& e) {
           // A colour image that cannot be read (or is not registered to the depth) costs the
           // photometric term of one frame, not the frame.
-          OBM_LOG_WARN(kLog, "frame " << i_ << ": " << e.what() << " (used without colour)");
+          OBM_LOG_WARN(p_.log_component.c_str(), "frame " << i_ << ": " << e.what() << " (used without colour)");
           color = false;
         }
       }
@@ -141,7 +166,7 @@ class RgbdSource : public FrameSource {
         cloud = seq_.cloud(i_, p_.depth_min, max_depth, p_.rgbd_stride, false, p_.rgbd_edge_jump);
     } catch (const Error& e) {
       ++read_errors_;
-      OBM_LOG_WARN(kLog, "frame " << i_ << ": " << e.what() << " (skipped)");
+      OBM_LOG_WARN(p_.log_component.c_str(), "frame " << i_ << ": " << e.what() << " (skipped)");
       cloud = PointCloud();
       cloud.frame_id = "camera";
     }
@@ -151,11 +176,11 @@ class RgbdSource : public FrameSource {
   }
   Isometry3d T_up_sensor() const override {
     Isometry3d T = Isometry3d::Identity();
-    T.linear() = io::T_mrptCamera_optical().linear();
+    T.linear() = T_mrptCamera_optical().linear();
     return T;
   }
-  GroundTruth groundTruth(const std::vector<double>& timestamps, double) const override {
-    GroundTruth gt;
+  FrameGroundTruth groundTruth(const std::vector<double>& timestamps, double) const override {
+    FrameGroundTruth gt;
     gt.T_world_body.assign(timestamps.size(), std::nullopt);
     bool any = false;
     for (std::size_t i = 0; i < timestamps.size() && i < seq_.size(); ++i)
@@ -168,28 +193,39 @@ class RgbdSource : public FrameSource {
   }
 
  private:
-  io::RgbdSequence seq_;
-  InputKind kind_;
-  InputParams p_;
+  RgbdSequence seq_;
+  DatasetKind kind_;
+  FrameStreamOptions p_;
   std::size_t i_ = 0;
 };
 
 // --- rawlog ----------------------------------------------------------------------------------
 
-class RawlogSource : public FrameSource {
+class RawlogSource : public FrameStream {
  public:
-  RawlogSource(const std::string& path, std::string gt, const InputParams& p)
+  RawlogSource(const std::string& path, std::string gt, const FrameStreamOptions& p)
       : path_(path), gt_(std::move(gt)), p_(p), reader_(path, readOptions(p)) {
     if (gt_.empty()) {
       const fs::path next_to = fs::path(path).parent_path() / "groundtruth.txt";
       if (fs::is_regular_file(next_to)) gt_ = next_to.string();
     }
   }
-  InputKind kind() const override { return InputKind::Rawlog; }
+  DatasetKind kind() const override { return DatasetKind::Rawlog; }
   std::size_t size() const override { return 0; }
+  std::vector<double> timestamps() const override {
+    // A pass over the metadata: the observations next() plays, without their clouds.
+    RawlogReadOptions meta = readOptions(p_);
+    meta.generate_clouds = false;
+    RawlogReader reader(path_, meta);
+    RawlogObservation obs;
+    std::vector<double> t;
+    while (reader.next(obs))
+      if (p_.sensor_label.empty() || obs.sensor_label == p_.sensor_label) t.push_back(obs.timestamp);
+    return t;
+  }
   bool next(PointCloud& cloud) override {
     if (ended_) return false;
-    io::RawlogObservation obs;
+    RawlogObservation obs;
     while (true) {
       bool at_end = false;
       try {
@@ -197,7 +233,7 @@ class RawlogSource : public FrameSource {
       } catch (const FormatError& e) {
         // A truncated or corrupt rawlog cannot be read past the damage: stop there.
         ++read_errors_;
-        OBM_LOG_WARN(kLog, e.what() << " — stopping at the last readable observation");
+        OBM_LOG_WARN(p_.log_component.c_str(), e.what() << " — stopping at the last readable observation");
         ended_ = true;
         return false;
       }
@@ -217,7 +253,7 @@ class RawlogSource : public FrameSource {
       if (obs.has_depth) {
         // Map "up" for a depth camera: the first camera's x-forward / z-up frame.
         up_ = Isometry3d::Identity();
-        up_.linear() = (io::T_mrptCamera_optical() * obs.T_vehicle_camera.inverse()).linear();
+        up_.linear() = (T_mrptCamera_optical() * obs.T_vehicle_camera.inverse()).linear();
       }
     }
     cloud = std::move(obs.cloud);
@@ -225,9 +261,9 @@ class RawlogSource : public FrameSource {
     return true;
   }
   Isometry3d T_up_sensor() const override { return up_; }
-  GroundTruth groundTruth(const std::vector<double>& timestamps, double max_dt) const override {
+  FrameGroundTruth groundTruth(const std::vector<double>& timestamps, double max_dt) const override {
     if (gt_.empty()) {
-      GroundTruth gt;
+      FrameGroundTruth gt;
       gt.T_world_body.assign(timestamps.size(), std::nullopt);
       return gt;
     }
@@ -255,19 +291,19 @@ class RawlogSource : public FrameSource {
               "elevations, so it cannot be turned into points");
     }
     if (!classes.empty())
-      OBM_LOG_WARN(kLog, path_ << ": skipped observations that are not point clouds: " << classes);
+      OBM_LOG_WARN(p_.log_component.c_str(), path_ << ": skipped observations that are not point clouds: " << classes);
   }
 
-  static io::RawlogReadOptions readOptions(const InputParams& p) {
-    io::RawlogReadOptions o;
+  static RawlogReadOptions readOptions(const FrameStreamOptions& p) {
+    RawlogReadOptions o;
     o.velodyne_min_range = p.velodyne_min_range;
     if (p.depth_max > 0.0) o.depth_max = p.depth_max;
     o.depth_min = p.depth_min;
     return o;
   }
   std::string path_, gt_;
-  InputParams p_;
-  io::RawlogReader reader_;
+  FrameStreamOptions p_;
+  RawlogReader reader_;
   bool ended_ = false, first_ = true;
   std::size_t other_labels_ = 0;
   Isometry3d up_ = Isometry3d::Identity();
@@ -275,27 +311,27 @@ class RawlogSource : public FrameSource {
 
 }  // namespace
 
-std::unique_ptr<FrameSource> openFrameSource(const std::string& input,
-                                             const std::string& ground_truth,
-                                             const InputParams& params) {
+std::unique_ptr<FrameStream> FrameStream::open(const std::string& input,
+                                               const FrameStreamOptions& params) {
+  const std::string& ground_truth = params.ground_truth;
   if (!ground_truth.empty() && !fs::is_regular_file(ground_truth))
     throw IoError("ground-truth file '" + ground_truth + "' does not exist");
-  const InputKind kind = io::detectDatasetKind(input);
-  io::RgbdSequenceOptions ro;
+  const DatasetKind kind = detectDatasetKind(input);
+  RgbdSequenceOptions ro;
   ro.max_time_difference = params.max_time_difference;
   ro.groundtruth_path = ground_truth;
   switch (kind) {
-    case InputKind::Kitti:
-      return std::make_unique<KittiSource>(input, ground_truth);
-    case InputKind::TumRgbd:
-    case InputKind::IclNuim:
-    case InputKind::SevenScenes:
-    case InputKind::Redwood:
-      return std::make_unique<RgbdSource>(io::RgbdSequence::open(input, ro), kind, params);
-    case InputKind::Rawlog:
+    case DatasetKind::Kitti:
+      return std::make_unique<KittiSource>(input, params);
+    case DatasetKind::TumRgbd:
+    case DatasetKind::IclNuim:
+    case DatasetKind::SevenScenes:
+    case DatasetKind::Redwood:
+      return std::make_unique<RgbdSource>(RgbdSequence::open(input, ro), kind, params);
+    case DatasetKind::Rawlog:
       return std::make_unique<RawlogSource>(input, ground_truth, params);
   }
   throw IoError("input '" + input + "': unsupported layout");
 }
 
-}  // namespace obm::slam::detail
+}  // namespace obm::io
