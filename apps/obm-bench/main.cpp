@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "../common/cli.hpp"
-#include "../common/object_source.hpp"
-#include "../common/scan_source.hpp"
+#include "obm/datasets/object_source.hpp"
+#include "obm/datasets/scan_source.hpp"
 #include "../common/paths.hpp"
 #include "bench.hpp"
 #include "obm/config/config_node.hpp"
@@ -322,7 +322,7 @@ int main(int argc, char** argv) {
       const auto data = root.child("data");
       std::string dir;
       data.get("dir", dir);
-      const auto opts = apps::RgbdFragmentOptions::load(data.child("rgbd"));
+      const auto opts = datasets::RgbdFragmentOptions::load(data.child("rgbd"));
       if (group != "val" && group != "unseen")
         throw ConfigError("--protocol rgbd_frames: --group must be val or unseen, not '" + group + "'");
       const auto& seqs = group == "val" ? opts.val_sequences : opts.test_sequences;
@@ -330,7 +330,7 @@ int main(int argc, char** argv) {
       if (!frame_gaps.empty() &&
           std::sscanf(frame_gaps.c_str(), "%d:%d", &lo, &hi) != 2)
         throw ConfigError("--frame-gaps: expected MIN:MAX, got '" + frame_gaps + "'");
-      pairs = apps::rgbdFramePairs(dir, opts, seqs, lo, hi, n_pairs, seed);
+      pairs = datasets::rgbdFramePairs(dir, opts, seqs, lo, hi, n_pairs, seed);
       if (!app.count("--recall-deg")) recall_deg = 5.0;
       if (!app.count("--recall-trans")) recall_trans = 0.1;
       std::ostringstream os;
@@ -343,7 +343,7 @@ int main(int argc, char** argv) {
       // to the config's points, scored against the sequences' ground truth.
       if (config_path.empty()) config_path = apps::findConfigFile("obmnet/train_lidar.yaml");
       const auto root = ConfigNode::loadFile(config_path);
-      auto scans = apps::ScanSourceConfig::load(root.child("data"));
+      auto scans = datasets::ScanSourceConfig::load(root.child("data"));
       if (!sequences.empty()) {
         scans.val_sequences = sequences;
       } else if (group != "val") {
@@ -352,9 +352,9 @@ int main(int argc, char** argv) {
       }
       int scan_points = 1024;
       root.child("train").child("pairs").get("num_points", scan_points);
-      const auto cls = pair_class.empty() ? apps::ScanPairClass{scans.frame_gap, false}
-                                          : apps::ScanPairClass::parse(pair_class);
-      pairs = apps::scanPairs(scans, scans.val_sequences, cls, scan_points, n_pairs, seed);
+      const auto cls = pair_class.empty() ? datasets::ScanPairClass{scans.frame_gap, false}
+                                          : datasets::ScanPairClass::parse(pair_class);
+      pairs = datasets::scanPairs(scans, scans.val_sequences, cls, scan_points, n_pairs, seed);
       if (num_points < 0) num_points = scan_points;
       if (unit <= 0.0) unit = 20.0;
       if (!app.count("--recall-deg")) recall_deg = 5.0;  // RIENet's KITTI recall: 5° and 2 m
@@ -373,12 +373,12 @@ int main(int argc, char** argv) {
       if (config_path.empty()) config_path = apps::findConfigFile("obmnet/train_objects.yaml");
       const auto root = ConfigNode::loadFile(config_path);
       auto proto = obmnet::PairProtocol::preset(protocol);
-      auto source_cfg = apps::ObjectSourceConfig::load(root.child("data"));
+      auto source_cfg = datasets::ObjectSourceConfig::load(root.child("data"));
       // Independent samplings draw source and target from disjoint halves of every surface
       // sample of the object, so the whole sample is kept.
       if (proto.resample && source_cfg.source != "modelnet40" && source_cfg.source != "rgbd")
         source_cfg.objects.keep_points = source_cfg.objects.surface_points;
-      auto set = apps::loadObjectSet(source_cfg);
+      auto set = datasets::loadObjectSet(source_cfg);
       if (group != "seen" && group != "val" && group != "unseen")
         throw ConfigError("--group must be seen, val or unseen, not '" + group + "'");
       const auto& objects = group == "seen" ? set.train : group == "val" ? set.val : set.test;

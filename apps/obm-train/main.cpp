@@ -10,9 +10,9 @@
 #include <vector>
 
 #include "../common/cli.hpp"
-#include "../common/fragment_source.hpp"
-#include "../common/object_source.hpp"
-#include "../common/scan_source.hpp"
+#include "obm/datasets/fragment_source.hpp"
+#include "obm/datasets/object_source.hpp"
+#include "obm/datasets/scan_source.hpp"
 #include "obm/config/config_node.hpp"
 #include "obm/config/overrides.hpp"
 #include "obm/core/errors.hpp"
@@ -118,22 +118,22 @@ int main(int argc, char** argv) {
     data.get("source", source);
     std::unique_ptr<obm::obmnet::Trainer> trainer_ptr;
     if (source == "kitti") {
-      auto scans = obm::apps::ScanSourceConfig::load(data);
+      auto scans = obm::datasets::ScanSourceConfig::load(data);
       const int n_points = cfg.protocol.num_points;
-      auto sampler = obm::apps::scanPairSampler(scans, n_points, cfg.curriculum_epochs);
-      auto val = obm::apps::scanValidationPairs(scans, n_points, cfg.val_pairs, cfg.seed);
+      auto sampler = obm::datasets::scanPairSampler(scans, n_points, cfg.curriculum_epochs);
+      auto val = obm::datasets::scanValidationPairs(scans, n_points, cfg.val_pairs, cfg.seed);
       std::fprintf(stderr, "[obm-train] scans: %zu validation pairs, %d points each\n", val.size(),
                    n_points);
       trainer_ptr =
           std::make_unique<obm::obmnet::Trainer>(cfg, std::move(sampler), std::move(val), out_dir);
-    } else if (const auto src = obm::apps::ObjectSourceConfig::load(data);
+    } else if (const auto src = obm::datasets::ObjectSourceConfig::load(data);
                src.source == "rgbd" && !src.rgbd.pair_gaps.empty()) {
       // Pairs of two different depth frames (data.rgbd.pair_gaps), not fragments cut twice.
       const auto& o = src.rgbd;
       const int n_points = cfg.protocol.num_points;
-      auto sampler = obm::apps::rgbdFramePairSampler(src.dir, o, n_points);
-      auto val = obm::apps::withPointCount(
-          obm::apps::rgbdFramePairs(src.dir, o, o.val_sequences, o.pair_gaps[0], o.pair_gaps[1],
+      auto sampler = obm::datasets::rgbdFramePairSampler(src.dir, o, n_points);
+      auto val = obm::datasets::withPointCount(
+          obm::datasets::rgbdFramePairs(src.dir, o, o.val_sequences, o.pair_gaps[0], o.pair_gaps[1],
                                     cfg.val_pairs, cfg.seed),
           n_points, cfg.seed);
       std::fprintf(stderr, "[obm-train] RGB-D frame pairs: %zu validation pairs, %d points each\n",
@@ -141,7 +141,7 @@ int main(int argc, char** argv) {
       trainer_ptr =
           std::make_unique<obm::obmnet::Trainer>(cfg, std::move(sampler), std::move(val), out_dir);
     } else {
-      auto set = obm::apps::loadObjectSet(src);
+      auto set = obm::datasets::loadObjectSet(src);
       std::fprintf(stderr,
                    "[obm-train] objects: %zu train, %zu val, %zu test (test never used here)\n",
                    set.train.size(), set.val.size(), set.test.size());

@@ -3,21 +3,23 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <filesystem>
 #include <random>
 #include <string>
 
-#include "../../apps/common/fragment_source.hpp"
-#include "../../apps/common/object_source.hpp"
+#include "obm/datasets/fragment_source.hpp"
+#include "obm/datasets/object_source.hpp"
 #include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
+#include "obm/io/redwood_log.hpp"
 #include "test_data.hpp"
 
 using namespace obm;
 
 namespace {
 
-apps::RgbdFragmentOptions open3dOptions() {
-  apps::RgbdFragmentOptions o;
+datasets::RgbdFragmentOptions open3dOptions() {
+  datasets::RgbdFragmentOptions o;
   o.layout = "redwood";
   o.train_sequences = {test::sharedDataDir() + "/rgbd_open3d"};
   o.frame_step = 1;
@@ -29,7 +31,7 @@ apps::RgbdFragmentOptions open3dOptions() {
 
 TEST(RgbdFragments, RealFramesAreCentredScaledAndSampled) {
   OBM_REQUIRE_SHARED_DATA("rgbd_open3d/trajectory.log");
-  const auto set = apps::loadRgbdFragments("", open3dOptions(), 2048, 0);
+  const auto set = datasets::loadRgbdFragments("", open3dOptions(), 2048, 0);
   ASSERT_EQ(set.train.size(), 5u);  // the 5 frames, one fragment each
   EXPECT_TRUE(set.val.empty());
   EXPECT_TRUE(set.test.empty());
@@ -42,9 +44,9 @@ TEST(RgbdFragments, RealFramesAreCentredScaledAndSampled) {
   }
   EXPECT_EQ(set.train.front().frame_id, "rgbd_open3d:0");
   // The sample depends on the seed, not on the call.
-  const auto again = apps::loadRgbdFragments("", open3dOptions(), 2048, 0);
+  const auto again = datasets::loadRgbdFragments("", open3dOptions(), 2048, 0);
   EXPECT_EQ(again.train[2].points, set.train[2].points);
-  const auto other = apps::loadRgbdFragments("", open3dOptions(), 2048, 1);
+  const auto other = datasets::loadRgbdFragments("", open3dOptions(), 2048, 1);
   EXPECT_NE(other.train[2].points, set.train[2].points);
 }
 
@@ -53,38 +55,38 @@ TEST(RgbdFragments, FusedFramesUseTheGroundTruthAndTooSmallFragmentsAreSkipped) 
   auto o = open3dOptions();
   o.fragment_frames = 3;  // frames 0-2, 1-3, 2-4 fused with trajectory.log
   o.voxel = 0.02;
-  const auto fused = apps::loadRgbdFragments("", o, 2048, 0);
+  const auto fused = datasets::loadRgbdFragments("", o, 2048, 0);
   EXPECT_EQ(fused.train.size(), 3u);
   // A coarse grid leaves fewer points than asked for: every fragment is skipped, and an empty
   // training split is an error naming the folder.
   o.voxel = 0.5;
-  EXPECT_THROW(apps::loadRgbdFragments("", o, 2048, 0), IoError);
+  EXPECT_THROW(datasets::loadRgbdFragments("", o, 2048, 0), IoError);
 }
 
 TEST(RgbdFragments, ConfigErrorsNameTheKeyAndTheVariable) {
   const auto bad_layout = ConfigNode::fromString("layout: kinect\ntrain_sequences: [a]\n", "frag.yaml");
   try {
-    apps::RgbdFragmentOptions::load(bad_layout);
+    datasets::RgbdFragmentOptions::load(bad_layout);
     FAIL() << "unknown layout accepted";
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("layout"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("frag.yaml"), std::string::npos) << e.what();
   }
   const auto no_train = ConfigNode::fromString("layout: tum\n", "frag.yaml");
-  EXPECT_THROW(apps::RgbdFragmentOptions::load(no_train), ConfigError);
+  EXPECT_THROW(datasets::RgbdFragmentOptions::load(no_train), ConfigError);
 
   ::unsetenv("OBM_TEST_UNSET_VARIABLE");
   auto o = open3dOptions();
   o.train_sequences = {"$OBM_TEST_UNSET_VARIABLE/rgbd_open3d"};
   try {
-    apps::loadRgbdFragments("", o, 2048, 0);
+    datasets::loadRgbdFragments("", o, 2048, 0);
     FAIL() << "unset variable accepted";
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("OBM_TEST_UNSET_VARIABLE"), std::string::npos)
         << e.what();
   }
   o.train_sequences = {"/nonexistent/seq"};
-  EXPECT_THROW(apps::loadRgbdFragments("", o, 2048, 0), IoError);
+  EXPECT_THROW(datasets::loadRgbdFragments("", o, 2048, 0), IoError);
 }
 
 TEST(RgbdFragments, LayoutPrefixAndEnvironmentVariableInTheObjectSource) {
@@ -100,7 +102,7 @@ TEST(RgbdFragments, LayoutPrefixAndEnvironmentVariableInTheObjectSource) {
       "  test_frame_step: 1\n"
       "objects: {keep_points: 1024}\n",
       "data.yaml");
-  const auto set = apps::loadObjectSet(apps::ObjectSourceConfig::load(node));
+  const auto set = datasets::loadObjectSet(datasets::ObjectSourceConfig::load(node));
   EXPECT_EQ(set.train.size(), 3u);  // frames 0, 2, 4
   EXPECT_EQ(set.test.size(), 5u);
   EXPECT_EQ(set.test.front().size(), 1024u);
@@ -110,9 +112,9 @@ TEST(RgbdFramePairs, TrainingSamplerDrawsTwoDifferentFramesOfTheGapsAtTheirPose)
   OBM_REQUIRE_SHARED_DATA("rgbd_open3d/trajectory.log");
   auto o = open3dOptions();
   o.pair_gaps = {1, 3};
-  const auto sampler = apps::rgbdFramePairSampler("", o, 1500);
+  const auto sampler = datasets::rgbdFramePairSampler("", o, 1500);
   // The ground-truth relative pose of every pair, from the trajectory, to compare with.
-  const auto all = apps::rgbdFramePairs("", o, o.train_sequences, 5, 5, 10, 0);  // every pair
+  const auto all = datasets::rgbdFramePairs("", o, o.train_sequences, 5, 5, 10, 0);  // every pair
   ASSERT_EQ(all.size(), 10u);
   std::mt19937_64 rng(3);
   for (int k = 0; k < 8; ++k) {
@@ -137,7 +139,7 @@ TEST(RgbdFramePairs, TrainingSamplerDrawsTwoDifferentFramesOfTheGapsAtTheirPose)
     EXPECT_TRUE(found) << p.name;
   }
   // Validation pairs batch like the training ones: exactly N points per cloud, names kept.
-  const auto val = apps::withPointCount(all, 700, 1);
+  const auto val = datasets::withPointCount(all, 700, 1);
   for (const auto& p : val) {
     EXPECT_EQ(p.source.size(), 700u);
     EXPECT_EQ(p.target.size(), 700u);
@@ -145,5 +147,61 @@ TEST(RgbdFramePairs, TrainingSamplerDrawsTwoDifferentFramesOfTheGapsAtTheirPose)
   EXPECT_EQ(val[3].name, all[3].name);
   o.pair_gaps = {3, 2};
   const auto node = ConfigNode::fromString("train_sequences: [a]\npair_gaps: [3, 2]\n", "d.yaml");
-  EXPECT_THROW(apps::RgbdFragmentOptions::load(node), ConfigError);
+  EXPECT_THROW(datasets::RgbdFragmentOptions::load(node), ConfigError);
+}
+
+TEST(RgbdFramePairs, PoseLabelsReplaceTheGroundTruthAndMarkThePairs) {
+  OBM_REQUIRE_SHARED_DATA("rgbd_open3d/trajectory.log");
+  // A sequence folder whose images are the shared frames (linked, not copied), with a labels
+  // file next to them: the shared trajectory with every pose moved by its own known offset, so
+  // a label differs from the ground-truth relative pose.
+  namespace fs = std::filesystem;
+  const std::string src = test::sharedDataDir() + "/rgbd_open3d";
+  const std::string dir = test::scratchDir("rgbd_labels") + "/seq";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  for (const char* name : {"depth", "color", "camera_primesense.json", "trajectory.log"})
+    fs::create_symlink(fs::absolute(src + "/" + name), dir + "/" + name);
+  const auto gt = io::readRedwoodTrajectory(src + "/trajectory.log");
+  std::vector<Isometry3d> labels;
+  for (std::size_t k = 0; k < gt.size(); ++k) {
+    Isometry3d D = Isometry3d::Identity();
+    D.translation() = Eigen::Vector3d(0.01 * static_cast<double>(k), 0.0, 0.0);
+    labels.push_back(gt[k] * D);
+  }
+  io::writeRedwoodTrajectory(dir + "/labels.log", labels);
+
+  auto o = open3dOptions();
+  o.train_sequences = {dir};
+  o.pair_gaps = {1, 4};
+  o.pose_labels = "labels.log";
+  const auto sampler = datasets::rgbdFramePairSampler("", o, 500);
+  std::mt19937_64 rng(5);
+  for (int k = 0; k < 6; ++k) {
+    const obmnet::RegistrationPair p = sampler(rng, 1);
+    const auto arrow = p.name.find("->"), colon = p.name.find(':');
+    const auto j = static_cast<std::size_t>(std::stoi(p.name.substr(colon + 1, arrow - colon - 1)));
+    const auto i = static_cast<std::size_t>(std::stoi(p.name.substr(arrow + 2)));
+    ASSERT_TRUE(p.has_pose_label) << p.name;
+    const Isometry3d expected = labels[i].inverse() * labels[j];
+    EXPECT_TRUE(p.T_target_source_label.isApprox(expected, 1e-6)) << p.name;
+    EXPECT_FALSE(p.T_target_source_label.isApprox(gt[i].inverse() * gt[j], 1e-6)) << p.name;
+  }
+  // Without labels the pairs carry none; a missing labels file is an IoError naming it.
+  o.pose_labels.clear();
+  EXPECT_FALSE(datasets::rgbdFramePairSampler("", o, 500)(rng, 1).has_pose_label);
+  o.pose_labels = "missing.log";
+  try {
+    datasets::rgbdFramePairSampler("", o, 500);
+    FAIL() << "missing labels accepted";
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("missing.log"), std::string::npos) << e.what();
+  }
+  // Labels are a file name in each folder, and train frame pairs only.
+  EXPECT_THROW(datasets::RgbdFragmentOptions::load(ConfigNode::fromString(
+                   "train_sequences: [a]\npair_gaps: [1, 2]\npose_labels: a/b.txt\n", "d.yaml")),
+               ConfigError);
+  EXPECT_THROW(datasets::RgbdFragmentOptions::load(
+                   ConfigNode::fromString("train_sequences: [a]\npose_labels: b.txt\n", "d.yaml")),
+               ConfigError);
 }

@@ -125,7 +125,9 @@ TEST(ObmNet, AblationSwitchesBuildAndRun) {
     net->train();
     const auto o = net->forward(torch::randn({2, 3, 24}), torch::randn({2, 3, 24}), true);
     EXPECT_TRUE(std::isfinite(o.loss.item<double>())) << "mask " << mask;
-    if (!c.use_bias_prediction) EXPECT_TRUE(torch::all(o.alpha == 1).item<bool>());
+    if (!c.use_bias_prediction) {
+      EXPECT_TRUE(torch::all(o.alpha == 1).item<bool>());
+    }
   }
   auto bad = smallConfig();
   bad.use_overlap_sampling = false;

@@ -8,7 +8,7 @@
 #include <random>
 #include <string>
 
-#include "../../apps/common/scan_source.hpp"
+#include "obm/datasets/scan_source.hpp"
 #include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/io/kitti.hpp"
@@ -41,8 +41,8 @@ std::string makeSequence(const std::string& dir, const std::string& name, bool p
   return seq.string();
 }
 
-apps::ScanSourceConfig config(const std::string& dir) {
-  return apps::ScanSourceConfig::load(ConfigNode::fromString(
+datasets::ScanSourceConfig config(const std::string& dir) {
+  return datasets::ScanSourceConfig::load(ConfigNode::fromString(
       "source: kitti\ndir: " + dir +
           "\nsequences: [train]\nval_sequences: [val]\nframe_gap: 2\nvoxel: 0.3\n"
           "min_range: 2.0\nmax_range: 40.0\n",
@@ -57,7 +57,7 @@ TEST(ScanSource, ValidationPairsAreEvenlySpacedWithTheLidarGroundTruth) {
   makeSequence(dir, "train", false);
   const std::string val = makeSequence(dir, "val", true);
   const auto cfg = config(dir);
-  const auto pairs = apps::scanValidationPairs(cfg, 512, 4, 7);
+  const auto pairs = datasets::scanValidationPairs(cfg, 512, 4, 7);
   ASSERT_EQ(pairs.size(), 4u);
   const io::KittiSequence seq(val);
   ASSERT_TRUE(seq.hasGroundTruth());
@@ -77,7 +77,7 @@ TEST(ScanSource, ValidationPairsAreEvenlySpacedWithTheLidarGroundTruth) {
     }
   }
   // Fixed seed: the same pairs again.
-  const auto again = apps::scanValidationPairs(cfg, 512, 4, 7);
+  const auto again = datasets::scanValidationPairs(cfg, 512, 4, 7);
   for (std::size_t k = 0; k < pairs.size(); ++k)
     EXPECT_EQ(again[k].source.points, pairs[k].source.points);
 }
@@ -87,7 +87,7 @@ TEST(ScanSource, CurriculumStartsWithSelfPairsAndEndsWithRealPairs) {
   const std::string dir = test::scratchDir("scan_source_sampler");
   makeSequence(dir, "train", false);
   makeSequence(dir, "val", true);
-  auto sampler = apps::scanPairSampler(config(dir), 256, 4);
+  auto sampler = datasets::scanPairSampler(config(dir), 256, 4);
   std::mt19937_64 rng(3);
   for (int n = 0; n < 3; ++n) {
     // Epoch 1: every pair is one sampled sweep and a made-up motion of it, so the motion maps the
@@ -113,7 +113,7 @@ TEST(ScanSource, ErrorsNameTheFolderOrTheKey) {
   makeSequence(dir, "train", false);
   makeSequence(dir, "val", false);  // no poses.txt: validation cannot be scored
   try {
-    apps::scanValidationPairs(config(dir), 256, 2, 1);
+    datasets::scanValidationPairs(config(dir), 256, 2, 1);
     FAIL();
   } catch (const IoError& e) {
     EXPECT_NE(std::string(e.what()).find("without ground truth"), std::string::npos) << e.what();
@@ -121,16 +121,16 @@ TEST(ScanSource, ErrorsNameTheFolderOrTheKey) {
   auto missing = config(dir);
   missing.val_sequences = {"nowhere"};
   try {
-    apps::scanValidationPairs(missing, 256, 2, 1);
+    datasets::scanValidationPairs(missing, 256, 2, 1);
     FAIL();
   } catch (const IoError& e) {
     EXPECT_NE(std::string(e.what()).find("nowhere"), std::string::npos) << e.what();
   }
   auto long_gap = config(dir);
   long_gap.frame_gap = 6;
-  EXPECT_THROW(apps::scanPairSampler(long_gap, 256), FormatError);
+  EXPECT_THROW(datasets::scanPairSampler(long_gap, 256), FormatError);
   try {
-    apps::ScanSourceConfig::load(
+    datasets::ScanSourceConfig::load(
         ConfigNode::fromString("source: kitti\nsequences: [a]\nframe_gapp: 3\n", "scan.yaml"));
     FAIL();
   } catch (const ConfigError& e) {
@@ -139,13 +139,13 @@ TEST(ScanSource, ErrorsNameTheFolderOrTheKey) {
 }
 
 TEST(ScanSource, PairClassesParseAndNameTheirGap) {
-  EXPECT_EQ(apps::ScanPairClass::parse("k5").gap, 5);
-  EXPECT_EQ(apps::ScanPairClass::parse("20").gap, 20);
-  EXPECT_TRUE(apps::ScanPairClass::parse("loop").loop);
-  EXPECT_EQ(apps::ScanPairClass::parse("loop").label(), "loop");
-  EXPECT_EQ(apps::ScanPairClass::parse("k10").label(), "k10");
+  EXPECT_EQ(datasets::ScanPairClass::parse("k5").gap, 5);
+  EXPECT_EQ(datasets::ScanPairClass::parse("20").gap, 20);
+  EXPECT_TRUE(datasets::ScanPairClass::parse("loop").loop);
+  EXPECT_EQ(datasets::ScanPairClass::parse("loop").label(), "loop");
+  EXPECT_EQ(datasets::ScanPairClass::parse("k10").label(), "k10");
   for (const char* bad : {"k", "k0", "x5", "5x", "loopy", ""})
-    EXPECT_THROW(apps::ScanPairClass::parse(bad), ConfigError) << bad;
+    EXPECT_THROW(datasets::ScanPairClass::parse(bad), ConfigError) << bad;
 }
 
 TEST(ScanSource, LoopPairsAreRevisitsWithTheirYaw) {
@@ -159,13 +159,13 @@ TEST(ScanSource, LoopPairsAreRevisitsWithTheirYaw) {
     for (int i = 0; i < 5; ++i) poses << "1 0 0 0 0 1 0 0 0 0 1 " << i << "\n";
     poses << "-1 0 0 0 0 1 0 0 0 0 -1 0\n";
   }
-  auto cfg = apps::ScanSourceConfig::load(ConfigNode::fromString(
+  auto cfg = datasets::ScanSourceConfig::load(ConfigNode::fromString(
       "source: kitti\ndir: " + dir +
           "\nsequences: [loop]\nval_sequences: [loop]\nframe_gap: 2\nvoxel: 0.3\nmin_range: 2.0\n"
           "max_range: 40.0\nloop_max_distance: 2.0\nloop_min_separation: 3\nloop_fraction: 1.0\n",
       "scan.yaml"));
   // Revisits ≥ 3 sweeps apart within 2 m: (0, 5), (1, 5), (2, 5); none of (0, 3), (0, 4), (1, 4).
-  const auto pairs = apps::scanPairs(cfg, {"loop"}, apps::ScanPairClass::parse("loop"), 256, 10, 1);
+  const auto pairs = datasets::scanPairs(cfg, {"loop"}, datasets::ScanPairClass::parse("loop"), 256, 10, 1);
   ASSERT_EQ(pairs.size(), 3u);
   const io::KittiSequence s(seq);
   const auto& gt = s.groundTruthLidar();
@@ -179,7 +179,7 @@ TEST(ScanSource, LoopPairsAreRevisitsWithTheirYaw) {
   // The training sampler draws only loops at loop_fraction 1, either sweep as the source, and
   // turns the source by the yaw augmentation (recorded in the pose it reports).
   cfg.yaw_augment_deg = 30.0;
-  auto sampler = apps::scanPairSampler(cfg, 128);
+  auto sampler = datasets::scanPairSampler(cfg, 128);
   std::mt19937_64 rng(4);
   for (int n = 0; n < 6; ++n) {
     const auto p = sampler(rng, 1);
@@ -190,9 +190,9 @@ TEST(ScanSource, LoopPairsAreRevisitsWithTheirYaw) {
   // A sequence with no revisit cannot train loops.
   auto none = cfg;
   none.loop_min_separation = 5;
-  EXPECT_NO_THROW(apps::scanPairSampler(none, 128));  // (0, 5) is still a revisit
+  EXPECT_NO_THROW(datasets::scanPairSampler(none, 128));  // (0, 5) is still a revisit
   none.loop_min_separation = 6;
-  EXPECT_THROW(apps::scanPairSampler(none, 128), ConfigError);
+  EXPECT_THROW(datasets::scanPairSampler(none, 128), ConfigError);
 }
 
 TEST(ScanSource, PoseLabelsComeFromTheMappingTrajectoryNeverFromGroundTruth) {
@@ -204,7 +204,7 @@ TEST(ScanSource, PoseLabelsComeFromTheMappingTrajectoryNeverFromGroundTruth) {
   cfg.pose_labels = "slam_poses.txt";
   // Missing labels: the error names the file.
   try {
-    apps::scanPairSampler(cfg, 256);
+    datasets::scanPairSampler(cfg, 256);
     FAIL();
   } catch (const IoError& e) {
     EXPECT_NE(std::string(e.what()).find("slam_poses.txt"), std::string::npos) << e.what();
@@ -214,7 +214,7 @@ TEST(ScanSource, PoseLabelsComeFromTheMappingTrajectoryNeverFromGroundTruth) {
     std::ofstream out(fs::path(train) / "slam_poses.txt");
     for (int i = 0; i < 6; ++i) out << "1 0 0 0 0 1 0 0 0 0 1 0\n";
   }
-  const auto sampler = apps::scanPairSampler(cfg, 256);
+  const auto sampler = datasets::scanPairSampler(cfg, 256);
   std::mt19937_64 rng(3);
   for (int k = 0; k < 5; ++k) {
     const auto p = sampler(rng, 1);
@@ -229,7 +229,7 @@ TEST(ScanSource, PoseLabelsComeFromTheMappingTrajectoryNeverFromGroundTruth) {
     auto turned = cfg;
     turned.yaw_augment_deg = 180.0;
     turned.label_yaw_hypotheses = 4;
-    const auto s4 = apps::scanPairSampler(turned, 256);
+    const auto s4 = datasets::scanPairSampler(turned, 256);
     double largest = 0.0;
     for (int k = 0; k < 40; ++k) {
       const auto p = s4(rng, 1);
@@ -243,13 +243,13 @@ TEST(ScanSource, PoseLabelsComeFromTheMappingTrajectoryNeverFromGroundTruth) {
     EXPECT_GT(largest, 5.0) << "the augmentation should still leave residual headings";
   }
   // Validation pairs are scored on ground truth and carry no label.
-  for (const auto& p : apps::scanValidationPairs(cfg, 256, 2, 1)) {
+  for (const auto& p : datasets::scanValidationPairs(cfg, 256, 2, 1)) {
     EXPECT_FALSE(p.has_pose_label) << p.name;
     EXPECT_GT(p.T_target_source.translation().norm(), 0.5) << p.name;  // the car moves
   }
   // Without pose_labels, no pair is labelled (poses.txt only chooses and scores).
-  const auto plain = apps::scanPairSampler(config(dir), 256);
+  const auto plain = datasets::scanPairSampler(config(dir), 256);
   EXPECT_FALSE(plain(rng, 1).has_pose_label);
   auto bad = ConfigNode::fromString("source: kitti\nsequences: [a]\npose_labels: x/y.txt\n", "s.yaml");
-  EXPECT_THROW(apps::ScanSourceConfig::load(bad), ConfigError);
+  EXPECT_THROW(datasets::ScanSourceConfig::load(bad), ConfigError);
 }

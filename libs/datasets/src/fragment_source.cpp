@@ -1,4 +1,4 @@
-#include "fragment_source.hpp"
+#include "obm/datasets/fragment_source.hpp"
 
 #include <algorithm>
 #include <cstdlib>
@@ -17,7 +17,7 @@
 
 namespace fs = std::filesystem;
 
-namespace obm::apps {
+namespace obm::datasets {
 
 RgbdFragmentOptions RgbdFragmentOptions::load(const ConfigNode& node) {
   RgbdFragmentOptions o;
@@ -367,4 +367,4 @@ std::vector<obmnet::RegistrationPair> withPointCount(std::vector<obmnet::Registr
   return pairs;
 }
 
-}  // namespace obm::apps
+}  // namespace obm::datasets

@@ -4,10 +4,10 @@
 /// YAML config. Shared by the tools; the sampling and splitting live in obm::obmnet.
 #include <string>
 
-#include "fragment_source.hpp"
+#include "obm/datasets/fragment_source.hpp"
 #include "obm/obmnet/object_set.hpp"
 
-namespace obm::apps {
+namespace obm::datasets {
 
 struct ObjectSourceConfig {
   /// cgal: the CGAL sample meshes of Debian's libcgal-demo (fetched by scripts/get_cgal_meshes.sh);
@@ -34,4 +34,4 @@ struct ObjectSourceConfig {
 /// holds no mesh.
 obmnet::ObjectSet loadObjectSet(const ObjectSourceConfig& config);
 
-}  // namespace obm::apps
+}  // namespace obm::datasets

@@ -1,4 +1,4 @@
-#include "object_source.hpp"
+#include "obm/datasets/object_source.hpp"
 
 #include <algorithm>
 #include <cstdlib>
@@ -12,7 +12,7 @@
 
 namespace fs = std::filesystem;
 
-namespace obm::apps {
+namespace obm::datasets {
 
 ObjectSourceConfig ObjectSourceConfig::load(const ConfigNode& node) {
   ObjectSourceConfig c;
@@ -123,4 +123,4 @@ obmnet::ObjectSet loadObjectSet(const ObjectSourceConfig& config) {
   return obmnet::buildObjectSet(meshes, config.objects);
 }
 
-}  // namespace obm::apps
+}  // namespace obm::datasets

@@ -13,7 +13,7 @@ namespace obm {
 class ConfigNode;
 }
 
-namespace obm::apps {
+namespace obm::datasets {
 
 struct ScanSourceConfig {
   /// Folder holding the sequences: a sequence name `s` is found as `dir/sequences/s` (the devkit
@@ -98,4 +98,4 @@ std::vector<obmnet::RegistrationPair> scanPairs(const ScanSourceConfig& config,
                                                 const ScanPairClass& cls, int num_points, int n,
                                                 std::uint64_t seed);
 
-}  // namespace obm::apps
+}  // namespace obm::datasets

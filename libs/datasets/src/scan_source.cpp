@@ -1,4 +1,4 @@
-#include "scan_source.hpp"
+#include "obm/datasets/scan_source.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -15,7 +15,7 @@
 
 namespace fs = std::filesystem;
 
-namespace obm::apps {
+namespace obm::datasets {
 
 ScanSourceConfig ScanSourceConfig::load(const ConfigNode& node) {
   ScanSourceConfig c;
@@ -364,4 +364,4 @@ std::vector<obmnet::RegistrationPair> scanValidationPairs(const ScanSourceConfig
   return pairs;
 }
 
-}  // namespace obm::apps
+}  // namespace obm::datasets

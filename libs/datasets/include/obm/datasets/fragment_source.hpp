@@ -19,7 +19,7 @@ namespace obm {
 class ConfigNode;
 }
 
-namespace obm::apps {
+namespace obm::datasets {
 
 struct RgbdFragmentOptions {
   /// Default layout of the sequences: tum | iclnuim | 7scenes | redwood. An entry of the lists
@@ -87,4 +87,4 @@ obmnet::PairSampler rgbdFramePairSampler(const std::string& dir,
 std::vector<obmnet::RegistrationPair> withPointCount(std::vector<obmnet::RegistrationPair> pairs,
                                                     int num_points, std::uint64_t seed);
 
-}  // namespace obm::apps
+}  // namespace obm::datasets
