@@ -289,6 +289,7 @@ TEST(FrontendRobust, EmptyNanAndCorruptedSweepsAreBridgedAndWarned) {
     EXPECT_EQ(res[i].status, TrackingStatus::Bridged) << "frame " << i;
     EXPECT_FALSE(res[i].keyframe) << "frame " << i;
     EXPECT_FALSE(res[i].reason.empty());
+    EXPECT_NE(res[i].rejection, RejectionKind::None) << "frame " << i;
     // The constant-velocity bridge keeps the pose close.
     EXPECT_LT(poseError(loop.truth[i], traj[i]).first, 0.5) << "frame " << i;
   }
@@ -549,6 +550,7 @@ TEST(FrontendRobust, AKidnappedSensorIsRelocalisedOntoThePlaceItHadMapped) {
     if (!lc.relocalisation || !lc.accepted) continue;
     ++reloc_loops;
     EXPECT_TRUE(lc.reason.empty()) << lc.reason;
+    EXPECT_EQ(lc.rejection, RejectionKind::None) << lc.reason;
   }
   EXPECT_GE(reloc_loops, p.loop_closure.relocalisation.confirmations);
   // The frames of the piece end where they are in the world of the first sweep.

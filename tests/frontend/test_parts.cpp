@@ -101,26 +101,34 @@ TEST(FrontendParts, EdgeInformationHasTheFloorAndBridgeEdgesTheirSigmas) {
 TEST(FrontendParts, AcceptanceTestsCheckStatusQualityInliersThenTheCorrection) {
   const AcceptanceBounds b{0.5, 0.6, 1.0, 5.0 * kDegToRad};
   const Isometry3d guess = Isometry3d::Identity();
+  using K = RejectionKind;
   MatchResult r = goodMatch();
-  EXPECT_EQ(rejectReason(r, guess, b), "");
+  EXPECT_EQ(checkAcceptance(r, guess, b).kind, K::None);
+  EXPECT_EQ(checkAcceptance(r, guess, b).detail, "");
   r.status = MatchStatus::NotConverged;
-  EXPECT_EQ(rejectReason(r, guess, b), "");  // not converged and degenerate matches are judged
+  EXPECT_FALSE(checkAcceptance(r, guess, b).rejected());  // not converged and degenerate are judged
   r.status = MatchStatus::TooFewCorrespondences;
-  EXPECT_EQ(rejectReason(r, guess, b).rfind("match status ", 0), 0u);
+  EXPECT_EQ(checkAcceptance(r, guess, b).kind, K::MatchStatus);
+  EXPECT_EQ(checkAcceptance(r, guess, b).detail.rfind("match status ", 0), 0u);
   r = goodMatch();
   r.quality = 0.4;
   r.inlier_ratio = 0.1;
-  EXPECT_EQ(rejectReason(r, guess, b).rfind("quality ", 0), 0u);  // the first failed test
+  EXPECT_EQ(checkAcceptance(r, guess, b).kind, K::Quality);  // the first failed test
+  EXPECT_EQ(checkAcceptance(r, guess, b).detail.rfind("quality ", 0), 0u);
   r = goodMatch();
   r.inlier_ratio = 0.5;
-  EXPECT_NE(rejectReason(r, guess, b).find("recent frames fit better"), std::string::npos);
+  EXPECT_EQ(checkAcceptance(r, guess, b).kind, K::InlierRatio);
+  EXPECT_NE(checkAcceptance(r, guess, b).detail.find("recent frames fit better"), std::string::npos);
   r = goodMatch();
   r.T_target_source = shifted(1.5);
-  EXPECT_EQ(rejectReason(r, guess, b).rfind("jump of 1.5", 0), 0u);
+  EXPECT_EQ(checkAcceptance(r, guess, b).kind, K::TranslationJump);
+  EXPECT_EQ(checkAcceptance(r, guess, b).detail.rfind("jump of 1.5", 0), 0u);
   r.T_target_source = Isometry3d::Identity();
   r.T_target_source.linear() = expSO3(Eigen::Vector3d(0.0, 0.0, 10.0 * kDegToRad));
-  EXPECT_NE(rejectReason(r, guess, b).find(" deg from the constant-velocity guess"),
+  EXPECT_EQ(checkAcceptance(r, guess, b).kind, K::RotationJump);
+  EXPECT_NE(checkAcceptance(r, guess, b).detail.find(" deg from the constant-velocity guess"),
             std::string::npos);
+  EXPECT_STREQ(toString(K::RotationJump), "rotation_jump");
 }
 
 TEST(FrontendParts, RecoveryStepsRunInTheDocumentedOrder) {
@@ -144,8 +152,9 @@ TEST(FrontendParts, TheLastKeyframeStepTakesTheMatchersRegistrationAndTimesItByM
   fr.index = 40;
   StageTimes times;
   recovery.startSweep();
-  recovery.recover(in, "tracking said no", fr, times);
+  recovery.recover(in, {RejectionKind::InlierRatio, "tracking said no"}, fr, times);
   EXPECT_EQ(fr.status, TrackingStatus::Recovered);
+  EXPECT_EQ(fr.rejection, RejectionKind::InlierRatio);  // why tracking did not take it
   EXPECT_EQ(fr.reason, "tracking said no; taken: icp against the last keyframe");
   EXPECT_LT((fr.match.T_target_source.translation() - Eigen::Vector3d(2.4, 0, 0)).norm(), 0.05);
   EXPECT_FALSE(recovery.takeConfirmedJump());
@@ -176,7 +185,7 @@ TEST(FrontendParts, AfterAGapOrWithAFitLikeTrackingTheRecoveryMayCorrectALargeTu
     FrameResult fr;
     StageTimes times;
     recovery.startSweep();
-    recovery.recover(in, "tracking said no", fr, times);
+    recovery.recover(in, {RejectionKind::TranslationJump, "tracking said no"}, fr, times);
     return fr;
   };
   const FrameResult without = recover(0.0);
@@ -342,6 +351,7 @@ TEST(FrontendParts, TheLoopCloserRejectsAPoseTurnedBeyondTheHeadingDrift) {
   EXPECT_FALSE(bounded[0].accepted);
   EXPECT_NEAR(bounded[0].correction_rotation * kRadToDeg, 180.0, 1e-6);
   // 15° + 0.01°/m × 100 m = 16°.
+  EXPECT_EQ(bounded[0].rejection, RejectionKind::LoopRotationCorrection);
   EXPECT_NE(bounded[0].reason.find("rotation correction 180"), std::string::npos)
       << bounded[0].reason;
   EXPECT_NE(bounded[0].reason.find("at most 16"), std::string::npos) << bounded[0].reason;

@@ -142,6 +142,7 @@ struct Frontend::Impl {
         fr.keyframe = true;
         motion.update(Isometry3d::Identity(), sweep.timestamp);
       } else {
+        fr.rejection = RejectionKind::NoSweep;
         fr.reason = "no usable sweep yet";
       }
       record(fr, Isometry3d::Identity());
@@ -153,6 +154,7 @@ struct Frontend::Impl {
     Isometry3d T = T_guess;
     if (!usable) {
       fr.status = TrackingStatus::Bridged;
+      fr.rejection = RejectionKind::NoSweep;
       fr.reason = "unusable sweep (" + std::to_string(source.size()) + " points after cleaning)";
     } else {
       track(source, T_guess, fr);
@@ -218,10 +220,10 @@ struct Frontend::Impl {
     const bool have_velocity = motion.count() >= 2;
     std::optional<Isometry3d> matcher_start;
     if (!have_velocity && p.tracking.start_search_matcher) matcher_start = matcherStart(source);
-    const std::string reason =
+    const Rejection rejection =
         tracker.track(source, local_map.target(), T_guess, have_velocity, fr.match, times,
                       matcher_start ? &*matcher_start : nullptr);
-    if (reason.empty()) {
+    if (!rejection.rejected()) {
       fr.status = TrackingStatus::Tracked;
       return;
     }
@@ -234,7 +236,7 @@ struct Frontend::Impl {
     const RecoveryInput in{source,           T_guess,          local_map.target(),
                            keyframes.back(), keyframes.size(), last_motion,
                            inl_ref,          extrapolated};
-    recovery.recover(in, reason, fr, times);
+    recovery.recover(in, rejection, fr, times);
   }
 
   /// The scan matcher's registration of the sweep against the last keyframe (world frame), from

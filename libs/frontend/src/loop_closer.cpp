@@ -26,13 +26,15 @@ backend::Edge3 loopEdge(const LoopClosureParams& params, const LoopClosure& lc,
   return e;
 }
 
-std::string matchRejectReason(const MatchResult& r, double min_quality, double min_inlier_ratio) {
+Rejection checkMatch(const MatchResult& r, double min_quality, double min_inlier_ratio) {
+  using K = RejectionKind;
   if (r.status != MatchStatus::Ok && r.status != MatchStatus::NotConverged)
-    return std::string("match status ") + toString(r.status);
-  if (!r.T_target_source.matrix().allFinite()) return "non-finite pose";
-  if (r.quality < min_quality) return "quality " + std::to_string(r.quality);
-  if (r.inlier_ratio < min_inlier_ratio) return "inlier ratio " + std::to_string(r.inlier_ratio);
-  return {};
+    return {K::MatchStatus, std::string("match status ") + toString(r.status)};
+  if (!r.T_target_source.matrix().allFinite()) return {K::NonFinitePose, "non-finite pose"};
+  if (r.quality < min_quality) return {K::Quality, "quality " + std::to_string(r.quality)};
+  if (r.inlier_ratio < min_inlier_ratio)
+    return {K::InlierRatio, "inlier ratio " + std::to_string(r.inlier_ratio)};
+  return Rejection::accepted();
 }
 
 bool nearTried(const std::vector<std::size_t>& tried, std::size_t j, long window) {
@@ -71,14 +73,17 @@ std::size_t LoopCloser::search(const std::vector<Keyframe>& keyframes,
           compareDescriptors(keyframes[k].descriptor, keyframes[j].descriptor).distance;
     }
     if (lp.use_descriptor && lc.descriptor_distance > lp.max_descriptor_distance) {
+      lc.rejection = RejectionKind::DescriptorDistance;
       lc.reason = "descriptor distance " + std::to_string(lc.descriptor_distance);
       loops.push_back(lc);
       continue;
     }
     ++stats.loop_candidates;
     const MatchResult r = verify(lc, keyframes, times);
-    lc.reason = rejectReason(lc, r, keyframes);
-    lc.accepted = lc.reason.empty();
+    const Rejection why = check(lc, r, keyframes);
+    lc.rejection = why.kind;
+    lc.reason = why.detail;
+    lc.accepted = !why.rejected();
     if (!lc.accepted) {
       ++stats.loops_rejected;
       OBM_LOG_DEBUG(kLog, "loop " << lc.from << " -> " << lc.to << " rejected: " << lc.reason);
@@ -167,24 +172,26 @@ MatchResult LoopCloser::verifyFrom(LoopClosure& lc, const std::vector<Keyframe>&
   return r;
 }
 
-std::string LoopCloser::rejectReason(const LoopClosure& lc, const MatchResult& r,
-                                     const std::vector<Keyframe>& keyframes) const {
+Rejection LoopCloser::check(const LoopClosure& lc, const MatchResult& r,
+                           const std::vector<Keyframe>& keyframes) const {
   const LoopClosureParams& lp = params_;
   const double travelled = keyframes[lc.to].travelled - keyframes[lc.from].travelled;
   const double max_corr =
       lp.max_correction > 0.0
           ? lp.max_correction
           : std::min(lp.max_search_radius, lp.search_radius + lp.search_radius_per_m * travelled);
-  if (std::string why = matchRejectReason(r, lp.min_quality, lp.min_inlier_ratio); !why.empty())
+  if (Rejection why = checkMatch(r, lp.min_quality, lp.min_inlier_ratio); why.rejected())
     return why;
-  if (lc.correction > max_corr) return "correction " + std::to_string(lc.correction) + " m";
+  if (lc.correction > max_corr)
+    return {RejectionKind::LoopCorrection, "correction " + std::to_string(lc.correction) + " m"};
   if (lp.max_correction_rotation > 0.0) {
     const double max_rot = lp.max_correction_rotation + lp.correction_rotation_per_m * travelled;
     if (lc.correction_rotation > max_rot)
-      return "rotation correction " + std::to_string(lc.correction_rotation * kRadToDeg) +
-             " deg (at most " + std::to_string(max_rot * kRadToDeg) + ")";
+      return {RejectionKind::LoopRotationCorrection,
+              "rotation correction " + std::to_string(lc.correction_rotation * kRadToDeg) +
+                  " deg (at most " + std::to_string(max_rot * kRadToDeg) + ")"};
   }
-  return {};
+  return Rejection::accepted();
 }
 
 }  // namespace obm::frontend

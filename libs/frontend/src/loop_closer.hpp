@@ -24,9 +24,8 @@ backend::Edge3 loopEdge(const LoopClosureParams& params, const LoopClosure& lc,
                         const MatchResult& match);
 
 /// The tests every verified loop match passes first, in order: a usable status, a finite pose,
-/// quality and inlier ratio at least these. Why it fails ("" when it passes).
-std::string matchRejectReason(const MatchResult& match, double min_quality,
-                              double min_inlier_ratio);
+/// quality and inlier ratio at least these. The first it fails (none when it passes).
+Rejection checkMatch(const MatchResult& match, double min_quality, double min_inlier_ratio);
 
 /// True when keyframe `j` is within `window` keyframes of one already `tried` (it would verify
 /// against nearly the same submap).
@@ -66,9 +65,9 @@ class LoopCloser {
   /// verifyFrom the current estimate of the relative pose.
   MatchResult verify(LoopClosure& lc, const std::vector<Keyframe>& keyframes,
                      StageTimes& times) const;
-  /// Why the verified match is not a loop closure ("" when it is).
-  std::string rejectReason(const LoopClosure& lc, const MatchResult& r,
-                           const std::vector<Keyframe>& keyframes) const;
+  /// The test the verified match fails as a loop closure (none when it is one).
+  Rejection check(const LoopClosure& lc, const MatchResult& r,
+                  const std::vector<Keyframe>& keyframes) const;
 
   LoopClosureParams params_;
   double submap_voxel_;

@@ -70,10 +70,11 @@ std::optional<JumpCandidate> Recovery::takeConfirmedJump() {
   return jump;
 }
 
-void Recovery::recover(const RecoveryInput& in, const std::string& reason, FrameResult& fr,
+void Recovery::recover(const RecoveryInput& in, const Rejection& rejection, FrameResult& fr,
                        StageTimes& times) {
   const TrackingParams& tp = params_;
-  Attempt a{in, fr, times, reason, {}, {}, {}, {}, {}, {}};
+  fr.rejection = rejection.kind;
+  Attempt a{in, fr, times, rejection.detail, {}, {}, {}, {}, {}, {}};
   const double max_rot = tp.recoveryMaxRotation() + in.extrapolated_rotation;
   a.recovered = {tp.recovery_min_quality, tp.recovery_relative_inlier_ratio * in.inlier_reference,
                  tp.recovery_max_correction, max_rot};
@@ -126,20 +127,21 @@ bool Recovery::wideGate(Attempt& a) {
       ScopedStage s(a.times, "icp");
       r = wide_gate_->match(in.source, in.local_map, T_start);
     }
-    const std::string w = rejectReason(r, in.T_guess, bounds);
+    const Rejection w = checkAcceptance(r, in.T_guess, bounds);
     OBM_LOG_DEBUG(kLog, "frame " << a.fr.index << ": wide-gate recovery from "
                                  << angle * kRadToDeg << " deg: inlier ratio " << r.inlier_ratio
-                                 << ", fitness " << r.fitness << (w.empty() ? "" : " (" + w + ")"));
-    if (w.empty() && (!found || r.inlier_ratio > best.inlier_ratio)) {
+                                 << ", fitness " << r.fitness
+                                 << (w.rejected() ? " (" + w.detail + ")" : ""));
+    if (!w.rejected() && (!found || r.inlier_ratio > best.inlier_ratio)) {
       best = r;
       found = true;
       if (r.inlier_ratio >= in.inlier_reference) break;  // as good as normal tracking: done
-    } else if (why.empty() && !w.empty()) {
-      why = w;
+    } else if (why.empty() && w.rejected()) {
+      why = w.detail;
     }
     // Fails only the relative inlier ratio: a candidate for the second opinion.
-    if (!w.empty() && tp.recovery_agreement_translation > 0.0 &&
-        rejectReason(r, in.T_guess, a.confirmed).empty() &&
+    if (w.rejected() && tp.recovery_agreement_translation > 0.0 &&
+        !checkAcceptance(r, in.T_guess, a.confirmed).rejected() &&
         (!a.near || r.inlier_ratio > a.near->inlier_ratio))
       a.near = r;
   }
@@ -174,8 +176,9 @@ bool Recovery::lastKeyframe(Attempt& a) {
                                  << rotationAngle(d.linear()) * kRadToDeg << " deg");
   }
   a.keyframe_match = r;
-  a.keyframe_why = rejectReason(r, in.T_guess, a.recovered);
-  if (a.keyframe_why.empty()) return a.take(r, matcher_.name() + " against the last keyframe");
+  const Rejection kr = checkAcceptance(r, in.T_guess, a.recovered);
+  if (!kr.rejected()) return a.take(r, matcher_.name() + " against the last keyframe");
+  a.keyframe_why = kr.detail;
   a.trailer = "; " + matcher_.name() + " recovery: " + a.keyframe_why;
   return false;
 }
@@ -185,7 +188,7 @@ bool Recovery::lastKeyframe(Attempt& a) {
 bool Recovery::secondOpinion(Attempt& a) {
   if (!a.near || !a.keyframe_match) return false;
   const MatchResult& r = *a.keyframe_match;
-  if (!rejectReason(r, a.in.T_guess, a.confirmed).empty()) return false;
+  if (checkAcceptance(r, a.in.T_guess, a.confirmed).rejected()) return false;
   if (!agree(a.near->T_target_source, r.T_target_source)) return false;
   return a.take(*a.near, "the wide-gate recovery, confirmed by " + matcher_.name() +
                              " against the last keyframe");
@@ -203,7 +206,7 @@ bool Recovery::confirmedJump(Attempt& a) {
   AcceptanceBounds unbounded = a.confirmed;
   unbounded.max_correction = kAny;
   unbounded.max_rotation = kAny;
-  if (!rejectReason(r, in.T_guess, unbounded).empty()) return false;
+  if (checkAcceptance(r, in.T_guess, unbounded).rejected()) return false;
   if (previous_ && previous_->frame + 1 == a.fr.index && previous_->keyframes == in.keyframes) {
     const Isometry3d T_predicted =
         previous_->T_world_sensor * (previous_->T_guess.inverse() * in.T_guess);

@@ -67,10 +67,11 @@ class Recovery {
   /// the next sweep may confirm it).
   void startSweep();
 
-  /// Runs the steps in order after tracking rejected `fr.match` for `reason`. A step that takes
-  /// the frame sets fr.match (world frame), fr.status = Recovered and fr.reason; otherwise
-  /// fr.status = Bridged and fr.reason says what every step found (fr.match is left as tracking's).
-  void recover(const RecoveryInput& in, const std::string& reason, FrameResult& fr,
+  /// Runs the steps in order after tracking rejected `fr.match` (`rejection`, which becomes
+  /// fr.rejection). A step that takes the frame sets fr.match (world frame), fr.status =
+  /// Recovered and fr.reason; otherwise fr.status = Bridged and fr.reason says what every step
+  /// found (fr.match is left as tracking's).
+  void recover(const RecoveryInput& in, const Rejection& rejection, FrameResult& fr,
                StageTimes& times);
 
   /// A jump confirmed by this sweep: the previous sweep's candidate (which the caller moves to

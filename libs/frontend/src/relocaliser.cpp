@@ -87,9 +87,10 @@ std::optional<Relocaliser::Join> Relocaliser::search(const std::vector<Keyframe>
     // heading, at the candidate's place.
     const Isometry3d T_init(Eigen::AngleAxisd(c.yaw, Eigen::Vector3d::UnitZ()));
     const MatchResult r = verifier_.verifyFrom(lc, keyframes, T_init, times);
-    if (std::string why = matchRejectReason(r, params_.min_quality, params_.min_inlier_ratio);
-        !why.empty()) {
-      lc.reason = "relocalisation: " + why;
+    if (const Rejection why = checkMatch(r, params_.min_quality, params_.min_inlier_ratio);
+        why.rejected()) {
+      lc.rejection = why.kind;
+      lc.reason = "relocalisation: " + why.detail;
       ++stats.loops_rejected;
       OBM_LOG_DEBUG(kLog, "relocalisation " << lc.from << " -> " << lc.to << " rejected: "
                                             << lc.reason << " (descriptor " << c.distance << ")");
@@ -112,6 +113,7 @@ std::optional<Relocaliser::Join> Relocaliser::search(const std::vector<Keyframe>
     }
     if (agreeing.size() + 1 < params_.confirmations) {
       // Logged now; flipped to accepted if the next keyframes confirm it.
+      h.lc.rejection = RejectionKind::NotConfirmed;
       h.lc.reason = "relocalisation: not confirmed by the next keyframes";
       OBM_LOG_DEBUG(kLog, "relocalisation " << lc.from << " -> " << lc.to << " (descriptor "
                                             << c.distance << ", quality " << r.quality
@@ -126,6 +128,7 @@ std::optional<Relocaliser::Join> Relocaliser::search(const std::vector<Keyframe>
     for (const Hypothesis* o : agreeing) {
       LoopClosure confirmed = o->lc;
       confirmed.accepted = true;
+      confirmed.rejection = RejectionKind::None;
       confirmed.reason.clear();
       for (LoopClosure& logged : loops)
         if (logged.relocalisation && logged.from == confirmed.from && logged.to == confirmed.to)
@@ -134,6 +137,7 @@ std::optional<Relocaliser::Join> Relocaliser::search(const std::vector<Keyframe>
       ++stats.loops_accepted;
     }
     h.lc.accepted = true;
+    h.lc.rejection = RejectionKind::None;
     h.lc.reason.clear();
     loops.push_back(h.lc);
     join.loops.emplace_back(h.lc, h.match);

@@ -10,31 +10,35 @@
 
 namespace obm::frontend {
 
-std::string rejectReason(const MatchResult& r, const Isometry3d& T_guess,
-                         const AcceptanceBounds& bounds) {
+Rejection checkAcceptance(const MatchResult& r, const Isometry3d& T_guess,
+                          const AcceptanceBounds& bounds) {
+  using K = RejectionKind;
   if (r.status != MatchStatus::Ok && r.status != MatchStatus::NotConverged &&
       r.status != MatchStatus::Degenerate)
-    return std::string("match status ") + toString(r.status) +
-           (r.message.empty() ? "" : " (" + r.message + ")");
-  if (!r.T_target_source.matrix().allFinite()) return "non-finite pose";
+    return {K::MatchStatus, std::string("match status ") + toString(r.status) +
+                                (r.message.empty() ? "" : " (" + r.message + ")")};
+  if (!r.T_target_source.matrix().allFinite()) return {K::NonFinitePose, "non-finite pose"};
   if (r.quality < bounds.min_quality)
-    return "quality " + std::to_string(r.quality) + " < " + std::to_string(bounds.min_quality);
+    return {K::Quality,
+            "quality " + std::to_string(r.quality) + " < " + std::to_string(bounds.min_quality)};
   if (r.inlier_ratio < bounds.min_inlier_ratio)
-    return "inlier ratio " + std::to_string(r.inlier_ratio) + " < " +
-           std::to_string(bounds.min_inlier_ratio) + " (recent frames fit better)";
+    return {K::InlierRatio, "inlier ratio " + std::to_string(r.inlier_ratio) + " < " +
+                                std::to_string(bounds.min_inlier_ratio) +
+                                " (recent frames fit better)"};
   const Isometry3d delta = T_guess.inverse() * r.T_target_source;
   const double dt = delta.translation().norm();
   const double dr = rotationAngle(delta.linear());
   if (dt > bounds.max_correction)
-    return "jump of " + std::to_string(dt) + " m from the constant-velocity guess (> " +
-           std::to_string(bounds.max_correction) + " m)";
+    return {K::TranslationJump, "jump of " + std::to_string(dt) +
+                                    " m from the constant-velocity guess (> " +
+                                    std::to_string(bounds.max_correction) + " m)"};
   const bool large_turn = bounds.large_turn_min_inlier_ratio > 0.0 &&
                           r.inlier_ratio >= bounds.large_turn_min_inlier_ratio;
   if (dr > bounds.max_rotation && !large_turn)
-    return "jump of " + std::to_string(dr * kRadToDeg) +
-           " deg from the constant-velocity guess (> " +
-           std::to_string(bounds.max_rotation * kRadToDeg) + " deg)";
-  return {};
+    return {K::RotationJump, "jump of " + std::to_string(dr * kRadToDeg) +
+                                 " deg from the constant-velocity guess (> " +
+                                 std::to_string(bounds.max_rotation * kRadToDeg) + " deg)"};
+  return Rejection::accepted();
 }
 
 Tracker::Tracker(const TrackingParams& params) : params_(params) {
@@ -48,7 +52,7 @@ Tracker::Tracker(const TrackingParams& params) : params_(params) {
   }
 }
 
-std::string Tracker::track(const PointCloud& source, const PreparedTarget& local_map,
+Rejection Tracker::track(const PointCloud& source, const PreparedTarget& local_map,
                            const Isometry3d& T_guess, bool have_velocity, MatchResult& match,
                            StageTimes& times, const Isometry3d* extra_start) {
   const TrackingParams& tp = params_;
@@ -66,8 +70,8 @@ std::string Tracker::track(const PointCloud& source, const PreparedTarget& local
     else
       match = searchStart(source, local_map, T_guess, bounds, extra_start);
   }
-  std::string reason = rejectReason(match, T_guess, bounds);
-  if (reason.empty()) {
+  Rejection reason = checkAcceptance(match, T_guess, bounds);
+  if (!reason.rejected()) {
     recent_inliers_.push_back(match.inlier_ratio);
     if (recent_inliers_.size() > 10) recent_inliers_.pop_front();
   }
@@ -90,10 +94,10 @@ MatchResult Tracker::searchStart(const PointCloud& source, const PreparedTarget&
   if (extra_start) starts.emplace_back(*extra_start, "the scan matcher's pose");
 
   MatchResult best = wide_gate_->match(source, local_map, T_guess);
-  bool best_ok = rejectReason(best, T_guess, bounds).empty();
+  bool best_ok = !checkAcceptance(best, T_guess, bounds).rejected();
   for (const auto& [T_start, what] : starts) {
     MatchResult m = wide_gate_->match(source, local_map, T_start);
-    const bool ok = rejectReason(m, T_guess, bounds).empty();
+    const bool ok = !checkAcceptance(m, T_guess, bounds).rejected();
     OBM_LOG_DEBUG("tracker", "start search from " << what << ": inlier ratio " << m.inlier_ratio
                                                   << (ok ? "" : " (rejected)"));
     // The start that pairs the most points within the inlier threshold; an accepted match

@@ -11,6 +11,7 @@
 #include "obm/core/se3.hpp"
 #include "obm/core/timer.hpp"
 #include "obm/frontend/params.hpp"
+#include "obm/frontend/rejection.hpp"
 #include "obm/registration/icp.hpp"
 #include "obm/registration/match_result.hpp"
 #include "obm/registration/prepared_target.hpp"
@@ -28,12 +29,12 @@ struct AcceptanceBounds {
   double large_turn_min_inlier_ratio = 0.0;
 };
 
-/// Why the match `r` of a frame whose constant-velocity guess is `T_guess` is not acceptable
-/// under `bounds` ("" when it is): status (ok / not_converged / degenerate pass), finite pose,
-/// quality, inlier ratio, then the correction of the guess (translation, rotation unless the
-/// match qualifies as a large turn).
-std::string rejectReason(const MatchResult& r, const Isometry3d& T_guess,
-                         const AcceptanceBounds& bounds);
+/// The first acceptance test the match `r` of a frame whose constant-velocity guess is `T_guess`
+/// fails under `bounds` (none when it passes all): status (ok / not_converged / degenerate
+/// pass), finite pose, quality, inlier ratio, then the correction of the guess (translation,
+/// rotation unless the match qualifies as a large turn).
+Rejection checkAcceptance(const MatchResult& r, const Isometry3d& T_guess,
+                          const AcceptanceBounds& bounds);
 
 /// Registers every frame against the local map and keeps the recent inlier ratios the relative
 /// acceptance test compares with.
@@ -42,12 +43,12 @@ class Tracker {
   explicit Tracker(const TrackingParams& params);
 
   /// Registers `source` against `local_map` from `T_guess` (stage "icp") into `match`; returns
-  /// "" when the match is accepted (then its inlier ratio joins the recent ones) or why it is
-  /// rejected. Without a velocity yet (`have_velocity` false: the second frame) the guess is the
+  /// no rejection when the match is accepted (then its inlier ratio joins the recent ones), else
+  /// the test it failed. Without a velocity yet (`have_velocity` false: the second frame) the guess is the
   /// last pose and any motion up to the recovery bound is normal: the wide, annealed gate of the
   /// recovery registers (a narrow gate lets a street's ground and facades hold the scan where it
   /// was) and the recovery's correction bounds apply.
-  std::string track(const PointCloud& source, const PreparedTarget& local_map,
+  Rejection track(const PointCloud& source, const PreparedTarget& local_map,
                     const Isometry3d& T_guess, bool have_velocity, MatchResult& match,
                     StageTimes& times, const Isometry3d* extra_start = nullptr);
 

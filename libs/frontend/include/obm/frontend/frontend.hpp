@@ -27,6 +27,7 @@
 #include "obm/frontend/descriptor.hpp"
 #include "obm/frontend/params.hpp"
 #include "obm/frontend/preprocess.hpp"
+#include "obm/frontend/rejection.hpp"
 #include "obm/registration/match_result.hpp"
 #include "obm/registration/scan_matcher.hpp"
 
@@ -48,7 +49,10 @@ struct FrameResult {
   std::size_t index = 0;   ///< 0-based frame number (order of process() calls)
   double timestamp = 0.0;  ///< [s] the sweep's time stamp
   TrackingStatus status = TrackingStatus::Initial;
-  std::string reason;           ///< why the frame was recovered or bridged ("" when tracked)
+  /// The test the tracking match failed (None when tracked): why the frame was recovered or
+  /// bridged, or NoSweep.
+  RejectionKind rejection = RejectionKind::None;
+  std::string reason;           ///< the same in words, with each recovery step's finding ("" when tracked)
   bool keyframe = false;        ///< the frame became a keyframe
   bool restarted = false;       ///< the local map restarted at this frame (after a bridge run)
   std::size_t keyframe_id = 0;  ///< keyframe the pose is attached to
@@ -87,7 +91,8 @@ struct LoopClosure {
   /// Found by relocalisation (place recognition over the whole map after the drive was lost), not
   /// by the proximity search around the estimate.
   bool relocalisation = false;
-  std::string reason;  ///< why it was rejected ("" when accepted)
+  RejectionKind rejection = RejectionKind::None;  ///< the test it failed (None when accepted)
+  std::string reason;  ///< the same in words ("" when accepted)
 };
 
 /// Counters of a run.
