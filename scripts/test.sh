@@ -20,9 +20,10 @@ fi
 if [[ "${1:-}" == "--sanitize" ]]; then
   BUILD="$ROOT/build-asan"
   # Unit tests of every library, the LibTorch-linked ones included (the network, its matchers, the
-  # front-end with OBMNet); the apps and their command-line tests run in the Release build.
-  "$ROOT/scripts/build.sh" "$BUILD" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DOBM_SANITIZE=ON -DOBM_BUILD_APPS=OFF \
-    -DOBM_WITH_TORCH=ON
+  # front-end with OBMNet), and the end-to-end run of the apps (obm-sim → obm-map with OBMNet →
+  # obm-octomap, obm-graph); the other command-line tests run in the Release build.
+  "$ROOT/scripts/build.sh" "$BUILD" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DOBM_SANITIZE=ON -DOBM_BUILD_APPS=ON \
+    "-DOBM_APPS=obm-map;obm-sim;obm-octomap;obm-graph" -DOBM_WITH_TORCH=ON
   # LibTorch, MRPT and their dependencies are not built with sanitizers: std containers they fill
   # trip ASan's container-overflow annotations (detect_container_overflow=0), and their one-time
   # global allocations are reported as leaks (suppressed by library name in .ci/lsan.supp). Nothing
@@ -34,7 +35,8 @@ if [[ "${1:-}" == "--sanitize" ]]; then
   export LSAN_OPTIONS="suppressions=$ROOT/.ci/lsan.supp:print_suppressions=0:${LSAN_OPTIONS:-}"
   export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:suppressions=$ROOT/.ci/ubsan.supp:${UBSAN_OPTIONS:-}"
   cd "$BUILD"
-  ctest --output-on-failure -j"$(nproc)" -LE "(install|slow)" --timeout 900
+  ctest --output-on-failure -j"$(nproc)" -LE "(install|slow|apps)" --timeout 900
+  ctest --output-on-failure -L e2e --timeout 1500
 else
   BUILD="$ROOT/build"
   "$ROOT/scripts/build.sh" "$BUILD"
