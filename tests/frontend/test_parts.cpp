@@ -274,8 +274,9 @@ TEST(FrontendParts, TheLoopCloserVerifiesACandidateFarEnoughAlongThePath) {
   EXPECT_EQ(stats.loops_accepted, 1u);
   ASSERT_EQ(optimizer.graph().edges3.size(), 1u);
   EXPECT_TRUE(optimizer.graph().edges3[0].is_loop);
-  EXPECT_EQ(times.entries().count(closer.verifyStage()), 1u);
-  EXPECT_STREQ(closer.verifyStage(), "loop_icp");
+  EXPECT_EQ(times.entries().count(toString(closer.verifyStage())), 1u);
+  EXPECT_EQ(closer.verifyStage(), Stage::LoopIcp);
+  EXPECT_STREQ(toString(Stage::LoopIcp), "loop_icp");
 }
 
 /// One loop search of the newest of `kfs` with `matcher`; the loops it recorded and the counters.

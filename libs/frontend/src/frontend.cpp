@@ -1,3 +1,4 @@
+#include "obm/frontend/stages.hpp"
 #include "obm/frontend/frontend.hpp"
 
 #include <algorithm>
@@ -191,7 +192,7 @@ struct Frontend::Impl {
   bool preprocess(const PointCloud& sweep, FrameResult& fr, PointCloud& cropped,
                   PointCloud& source) {
     {
-      ScopedStage s(times, "preprocess");
+      TimedStage s(times, Stage::Preprocess);
       cropped = cleanAndCrop(sweep, p.preprocess.min_range, p.preprocess.max_range, &fr.preprocess);
       source = p.preprocess.voxel > 0.0 ? voxelDownsample(cropped, p.preprocess.voxel) : cropped;
       if (p.preprocess.max_points > 0 && source.size() > p.preprocess.max_points)
@@ -242,7 +243,7 @@ struct Frontend::Impl {
   /// The scan matcher's registration of the sweep against the last keyframe (world frame), from
   /// the keyframe's pose: a start for the tracker's start search when there is no motion prior.
   std::optional<Isometry3d> matcherStart(const PointCloud& source) {
-    ScopedStage s(times, "start_search");
+    TimedStage s(times, Stage::StartSearch);
     const Keyframe& kf = keyframes.back();
     const PreparedTarget target = matcher->prepare(kf.cloud);
     const MatchResult r = matcher->match(source, target, Isometry3d::Identity());
@@ -356,18 +357,18 @@ struct Frontend::Impl {
     kf.travelled = travelled;
     kf.bridged = bridged;
     {
-      ScopedStage s(times, "local_map");
+      TimedStage s(times, Stage::LocalMap);
       kf.cloud = p.local_map.voxel > 0.0 ? voxelDownsample(cropped, p.local_map.voxel) : cropped;
       kf.cloud.intensity.clear();
       // Colours stay only for coloured ICP's photometric term (memory otherwise).
       if (!(p.tracking.icp.color_weight > 0.0)) kf.cloud.colors.clear();
     }
     if (p.loop_closure.enabled && p.loop_closure.use_descriptor) {
-      ScopedStage s(times, "loop_search");
+      TimedStage s(times, Stage::LoopSearch);
       kf.descriptor = computeDescriptor(cropped, p.loop_closure.descriptor);
     }
     {
-      ScopedStage s(times, "graph");
+      TimedStage s(times, Stage::Graph);
       optimizer.addNode(static_cast<backend::NodeId>(kf.id), T_world_sensor);
       if (kf.id == 0) {
         optimizer.setFixed(0, true);
@@ -403,7 +404,7 @@ struct Frontend::Impl {
     T_world_current = join.T_map_piece * T_world_current;
     motion.applyCorrection(join.T_map_piece);
     {
-      ScopedStage s(times, "graph");
+      TimedStage s(times, Stage::Graph);
       for (const auto& [lc, r] : join.loops) optimizer.addEdge(loopEdge(p.loop_closure, lc, r));
     }
     optimize();
@@ -446,7 +447,7 @@ struct Frontend::Impl {
   void optimize() {
     backend::Summary sum;
     {
-      ScopedStage s(times, "graph");
+      TimedStage s(times, Stage::Graph);
       sum = optimizer.optimize();
     }
     ++stats.optimizations;

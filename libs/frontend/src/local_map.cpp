@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "obm/frontend/stages.hpp"
 #include "obm/core/cloud_ops.hpp"
 
 namespace obm::frontend {
@@ -24,12 +25,12 @@ void LocalMap::rebuild(const std::vector<Keyframe>& keyframes, std::size_t frame
   if (pending_.valid()) {
     // Not installed yet (keyframes in quick succession): it is still a map of the current
     // world, better than the one in use.
-    ScopedStage s(times, "local_map_wait");
+    TimedStage s(times, Stage::LocalMapWait);
     BuiltMap m = pending_.get();
     current_ = std::move(m.target);
-    times.add("local_map_build", m.ms);
+    addStageTime(times, Stage::LocalMapBuild, m.ms);
   }
-  ScopedStage s(times, "local_map");
+  TimedStage s(times, Stage::LocalMap);
   const std::size_t k = keyframes.size() - 1;
   const std::size_t n = params_.keyframes;
   const std::size_t first = std::max(first_, k + 1 > n ? k + 1 - n : std::size_t{0});
@@ -86,11 +87,11 @@ void LocalMap::installPending(std::size_t frame_index, StageTimes& times) {
   if (!pending_.valid() || frame_index < pending_from_frame_) return;
   BuiltMap m;
   {
-    ScopedStage s(times, "local_map_wait");
+    TimedStage s(times, Stage::LocalMapWait);
     m = pending_.get();
   }
   current_ = std::move(m.target);
-  times.add("local_map_build", m.ms);
+  addStageTime(times, Stage::LocalMapBuild, m.ms);
 }
 
 }  // namespace obm::frontend

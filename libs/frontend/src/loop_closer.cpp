@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "obm/frontend/stages.hpp"
 #include "obm/core/cloud_ops.hpp"
 #include "obm/core/log.hpp"
 #include "obm/core/se3.hpp"
@@ -68,7 +69,7 @@ std::size_t LoopCloser::search(const std::vector<Keyframe>& keyframes,
     lc.from = j;
     lc.to = k;
     if (lp.use_descriptor) {
-      ScopedStage s(times, "loop_search");
+      TimedStage s(times, Stage::LoopSearch);
       lc.descriptor_distance =
           compareDescriptors(keyframes[k].descriptor, keyframes[j].descriptor).distance;
     }
@@ -96,7 +97,7 @@ std::size_t LoopCloser::search(const std::vector<Keyframe>& keyframes,
                                                 << " m, quality " << r.quality << ", inliers "
                                                 << r.inlier_ratio << ")");
     {
-      ScopedStage s(times, "graph");
+      TimedStage s(times, Stage::Graph);
       optimizer.addEdge(loopEdge(lp, lc, r));
     }
     loops.push_back(lc);
@@ -111,7 +112,7 @@ std::vector<std::pair<double, std::size_t>> LoopCloser::candidates(
     const std::vector<Keyframe>& keyframes, std::size_t k, StageTimes& times) const {
   const LoopClosureParams& lp = params_;
   std::vector<std::pair<double, std::size_t>> found;
-  ScopedStage s(times, "loop_search");
+  TimedStage s(times, Stage::LoopSearch);
   const Keyframe& cur = keyframes[k];
   const Eigen::Vector3d z_cur = cur.T_world_sensor.linear().col(2);  // optical axis
   const double min_view_cos = std::cos(lp.max_view_angle);
@@ -146,7 +147,7 @@ MatchResult LoopCloser::verifyFrom(LoopClosure& lc, const std::vector<Keyframe>&
   const Keyframe& cand = keyframes[lc.from];
   MatchResult r;
   {
-    ScopedStage s(times, verifyStage());
+    TimedStage s(times, verifyStage());
     // Target: the candidate and its neighbours, in the candidate's frame.
     const long w = lp.submap_keyframes;
     const long lo = std::max<long>(0, static_cast<long>(lc.from) - w);

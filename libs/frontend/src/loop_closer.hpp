@@ -48,7 +48,7 @@ class LoopCloser {
   int submapKeyframes() const { return params_.submap_keyframes; }
 
   /// The timing stage of the verification (matcherStage: "obmnet" or "loop_icp").
-  const char* verifyStage() const { return matcherStage(matcher_); }
+  Stage verifyStage() const { return matcherStage(matcher_); }
 
   /// Registers keyframe lc.to against the submap of keyframe lc.from (it and submap_keyframes
   /// neighbours, but not the recent past) from `T_init` (= T_from_to's guess); fills the pose,

@@ -4,12 +4,13 @@
 /// verification and the last_keyframe recovery step: "obmnet" for a matcher that registers
 /// without a good guess (OBMNet, OBMNet + ICP), "loop_icp" for the local ones (ICP, OBMM + ICP).
 /// Private to libs/frontend.
+#include "obm/frontend/stages.hpp"
 #include "obm/registration/scan_matcher.hpp"
 
 namespace obm::frontend {
 
-inline const char* matcherStage(const ScanMatcher& matcher) {
-  return matcher.global() ? "obmnet" : "loop_icp";
+inline Stage matcherStage(const ScanMatcher& matcher) {
+  return matcher.global() ? Stage::Obmnet : Stage::LoopIcp;
 }
 
 }  // namespace obm::frontend

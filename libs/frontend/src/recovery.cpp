@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "matcher_stage.hpp"
+#include "obm/frontend/stages.hpp"
 #include "obm/core/log.hpp"
 #include "tracker.hpp"
 
@@ -124,7 +125,7 @@ bool Recovery::wideGate(Attempt& a) {
     T_start.linear() = in.T_guess.linear() * expSO3(angle * axis);
     MatchResult r;
     {
-      ScopedStage s(a.times, "icp");
+      TimedStage s(a.times, Stage::Icp);
       r = wide_gate_->match(in.source, in.local_map, T_start);
     }
     const Rejection w = checkAcceptance(r, in.T_guess, bounds);
@@ -159,7 +160,7 @@ bool Recovery::lastKeyframe(Attempt& a) {
   const Keyframe& kf = in.last_keyframe;
   MatchResult r;
   {
-    ScopedStage s(a.times, matcherStage(matcher_));
+    TimedStage s(a.times, matcherStage(matcher_));
     if (!last_keyframe_target_)
       last_keyframe_target_ = std::make_unique<PreparedTarget>(matcher_.prepare(kf.cloud));
     r = matcher_.match(in.source, *last_keyframe_target_, kf.T_world_sensor.inverse() * in.T_guess);

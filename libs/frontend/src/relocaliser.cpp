@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <string>
 
+#include "obm/frontend/stages.hpp"
 #include "obm/core/log.hpp"
 #include "obm/core/se3.hpp"
 #include "obm/frontend/descriptor.hpp"
@@ -61,7 +62,7 @@ std::optional<Relocaliser::Join> Relocaliser::search(const std::vector<Keyframe>
 
   std::vector<Candidate> found;
   {
-    ScopedStage s(times, "relocalise");
+    TimedStage s(times, Stage::Relocalise);
     found = candidates(keyframes, k);
   }
   // Matches of keyframes too far back no longer count as "in a row".

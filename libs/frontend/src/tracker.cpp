@@ -6,6 +6,7 @@
 #include <utility>
 #include <vector>
 
+#include "obm/frontend/stages.hpp"
 #include "obm/core/log.hpp"
 
 namespace obm::frontend {
@@ -64,7 +65,7 @@ Rejection Tracker::track(const PointCloud& source, const PreparedTarget& local_m
   bounds.max_rotation =
       have_velocity ? tp.max_correction_rotation : tp.recoveryMaxRotation();
   {
-    ScopedStage s(times, "icp");
+    TimedStage s(times, Stage::Icp);
     if (have_velocity || !wide_gate_)
       match = icp_->match(source, local_map, T_guess);
     else

@@ -1,3 +1,4 @@
+#include "obm/frontend/stages.hpp"
 #include "obm/slam/mapping_app.hpp"
 
 #include <cmath>
@@ -266,7 +267,7 @@ RunSummary MappingApp::run() {
     }
     PointCloud cloud;
     {
-      ScopedStage s(app_times, "read");  // the wait for the frame read meanwhile
+      frontend::TimedStage s(app_times, frontend::Stage::Read);  // the wait for the frame read meanwhile
       if (!reader.next(cloud)) break;
     }
     if (n == 0) T_up_sensor = source->T_up_sensor();
@@ -278,7 +279,7 @@ RunSummary MappingApp::run() {
                           r.preprocess.points_in, r.preprocess.points_out, r.reason});
     ++n;
     if (r.keyframe && mapper && r.keyframe_id % cfg.output.map_every == 0) {
-      ScopedStage s(app_times, "octomap_queue");
+      frontend::TimedStage s(app_times, frontend::Stage::OctomapQueue);
       mapper->push(r.keyframe_id, std::move(cloud), T_up_sensor * r.T_world_sensor);
     }
     const auto& st = fe.stats();
@@ -287,7 +288,7 @@ RunSummary MappingApp::run() {
     if (st.bridged > 0) status << " bridged " << st.bridged;
     bar.update(n, status.str());
     if (cfg.output.autosave_s > 0.0 && since_save.seconds() >= cfg.output.autosave_s) {
-      ScopedStage s(app_times, "autosave");  // the folder exists: checkWritable made it
+      frontend::TimedStage s(app_times, frontend::Stage::Autosave);  // the folder exists: checkWritable made it
       writeTrajectories(fe.trajectory(), fe.timestamps(), false);
       since_save.reset();
     }
@@ -454,7 +455,7 @@ RunSummary MappingApp::run() {
     } else {
       OBM_LOG_WARN(kLog, "no keyframe was integrated: no map written");
     }
-    app_times.add("octomap", mapper->busyMs() + t.ms());
+    frontend::addStageTime(app_times, frontend::Stage::Octomap, mapper->busyMs() + t.ms());
   }
   if (cfg.output.pictures && !traj.empty()) {
     std::vector<std::pair<std::size_t, std::size_t>> loop_frames;
@@ -467,7 +468,7 @@ RunSummary MappingApp::run() {
   }
   if (cfg.output.mrpt && !traj.empty())
     writeMrptOutputs(fe, traj, stamps, gt_plot, T_up_sensor, cfg.output.scene_voxel, file);
-  app_times.add("output", output_timer.ms());
+  frontend::addStageTime(app_times, frontend::Stage::Output, output_timer.ms());
 
   // Timing (written last so it covers everything but itself).
   sum.wall_s = wall.seconds();
