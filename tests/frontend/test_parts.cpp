@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "edge_information.hpp"
@@ -161,6 +162,42 @@ TEST(FrontendParts, TheLastKeyframeStepTakesTheMatchersRegistrationAndTimesItByM
   // ICP's time is "loop_icp" (as in loop verification), not the OBMNet stage.
   EXPECT_EQ(times.entries().count("loop_icp"), 1u);
   EXPECT_EQ(times.entries().count("obmnet"), 0u);
+}
+
+TEST(FrontendParts, AMatchOnTheGuessIntoUnmappedSpaceIsTrackedWithGuessAgreement) {
+  // The local map is the box; the sweep sees the box and, as much again, a room beyond it that
+  // the map has not seen (a doorway, a fast turn): its right match pairs ~60 % of the points,
+  // below 0.7 of the recent frames' ratio.
+  const PointCloud box = boxCloud();
+  PointCloud wider = box;
+  for (double y = -20.0; y <= 20.0; y += 0.5)
+    for (double z = -1.0; z <= 9.0; z += 0.5) wider.push_back(Vector3f(40.0f, static_cast<float>(y), static_cast<float>(z)));
+  for (double x = 41.0; x <= 60.0; x += 0.5)
+    for (double y = -20.0; y <= 20.0; y += 0.5) wider.push_back(Vector3f(static_cast<float>(x), static_cast<float>(y), 6.0f));
+  const auto run = [&](double agreement, const Isometry3d& T_true) {
+    TrackingParams tp;
+    tp.guess_agreement_translation = agreement;
+    Tracker tracker(tp);
+    const PreparedTarget map(box, tracker.icp().icpParams().targetOptions());
+    MatchResult m;
+    StageTimes times;
+    for (int k = 0; k < 3; ++k)  // the recent frames: the box alone, fully paired
+      EXPECT_FALSE(tracker.track(box, map, Isometry3d::Identity(), true, m, times).rejected());
+    PointCloud sweep;
+    const Eigen::Isometry3f T_sensor_world = T_true.inverse().cast<float>();
+    for (const Vector3f& q : wider.points) sweep.push_back(T_sensor_world * q);
+    const Rejection r = tracker.track(sweep, map, Isometry3d::Identity(), true, m, times);
+    return std::make_pair(r, m);
+  };
+  const auto [off, m_off] = run(0.0, Isometry3d::Identity());
+  EXPECT_EQ(off.kind, RejectionKind::InlierRatio) << off.detail << " (inlier ratio " << m_off.inlier_ratio << ")";
+  const auto [on, m_on] = run(0.02, Isometry3d::Identity());
+  EXPECT_FALSE(on.rejected()) << on.detail;
+  EXPECT_LT(m_on.T_target_source.translation().norm(), 0.02);
+  // A sweep 0.3 m from the guess: the match may be right, but prediction and registration
+  // disagree, so the relative inlier test stands.
+  const auto [far, m_far] = run(0.02, shifted(0.3));
+  EXPECT_EQ(far.kind, RejectionKind::InlierRatio) << far.detail;
 }
 
 TEST(FrontendParts, AfterAGapOrWithAFitLikeTrackingTheRecoveryMayCorrectALargeTurn) {

@@ -120,6 +120,13 @@ void TrackingParams::validate() const {
   require(finite(recovery_rotation_step) && recovery_rotation_step > 0.0,
           "recovery_rotation_step_deg", "must be > 0 [deg]");
   require(recovery_rotation_hypotheses >= 0, "recovery_rotation_hypotheses", "must be >= 0");
+  require(finite(guess_agreement_translation) && guess_agreement_translation >= 0.0,
+          "guess_agreement_translation", "must be >= 0 [m] (0 = off)");
+  require(finite(guess_agreement_rotation) && guess_agreement_rotation > 0.0,
+          "guess_agreement_rotation_deg", "must be > 0 [deg]");
+  require(guess_agreement_relative_inlier_ratio >= 0.0 &&
+              guess_agreement_relative_inlier_ratio <= 1.0,
+          "guess_agreement_relative_inlier_ratio", "must be in [0, 1]");
   require(finite(recovery_agreement_translation) && recovery_agreement_translation >= 0.0,
           "recovery_agreement_translation", "must be >= 0 [m] (0 = no second opinion)");
   require(finite(recovery_agreement_rotation) && recovery_agreement_rotation > 0.0,
@@ -168,6 +175,9 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
                   "recovery_rotation_hypotheses",
                   "recovery_agreement_translation",
                   "recovery_agreement_rotation_deg",
+                  "guess_agreement_translation",
+                  "guess_agreement_rotation_deg",
+                  "guess_agreement_relative_inlier_ratio",
                   "recovery_confirm_jumps",
                   "recovery_repeated_jump_is_velocity",
                   "recovery_confirmed_relative_inlier_ratio",
@@ -197,6 +207,9 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
   node.get("recovery_relative_inlier_ratio", p.recovery_relative_inlier_ratio);
   node.getDegAsRad("recovery_rotation_step_deg", p.recovery_rotation_step);
   node.get("recovery_rotation_hypotheses", p.recovery_rotation_hypotheses);
+  node.get("guess_agreement_translation", p.guess_agreement_translation);
+  node.getDegAsRad("guess_agreement_rotation_deg", p.guess_agreement_rotation);
+  node.get("guess_agreement_relative_inlier_ratio", p.guess_agreement_relative_inlier_ratio);
   node.get("recovery_agreement_translation", p.recovery_agreement_translation);
   node.getDegAsRad("recovery_agreement_rotation_deg", p.recovery_agreement_rotation);
   node.get("recovery_confirm_jumps", p.recovery_confirm_jumps);

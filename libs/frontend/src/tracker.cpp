@@ -72,6 +72,18 @@ Rejection Tracker::track(const PointCloud& source, const PreparedTarget& local_m
       match = searchStart(source, local_map, T_guess, bounds, extra_start);
   }
   Rejection reason = checkAcceptance(match, T_guess, bounds);
+  if (reason.kind == RejectionKind::InlierRatio && have_velocity &&
+      tp.guess_agreement_translation > 0.0) {
+    // Fails only the relative inlier ratio (the other tests, with that bound lowered, pass) and
+    // agrees with the motion prior: the view moved into unmapped space (TrackingParams).
+    AcceptanceBounds lowered = bounds;
+    lowered.min_inlier_ratio = tp.guess_agreement_relative_inlier_ratio * inl_ref;
+    const Isometry3d d = T_guess.inverse() * match.T_target_source;
+    if (!checkAcceptance(match, T_guess, lowered).rejected() &&
+        d.translation().norm() <= tp.guess_agreement_translation &&
+        rotationAngle(d.linear()) <= tp.guess_agreement_rotation)
+      reason = Rejection::accepted();
+  }
   if (!reason.rejected()) {
     recent_inliers_.push_back(match.inlier_ratio);
     if (recent_inliers_.size() > 10) recent_inliers_.pop_front();

@@ -95,6 +95,16 @@ struct TrackingParams {
   /// inlier ratio of the last 10 tracked frames: a wrong local minimum still pairs the ground and
   /// the facades but loses the rest, which an absolute threshold misses in a street. [0, 1]
   double relative_inlier_ratio = 0.7;
+  /// A match that fails only relative_inlier_ratio is still taken when it lands within these
+  /// bounds of the constant-velocity guess and keeps at least guess_agreement_relative_inlier_ratio
+  /// of the recent median inlier ratio: prediction and registration agree, and the fall in the
+  /// inlier ratio is the view moving into space the local map has not seen yet (a fast turn or a
+  /// doorway indoors), which the overlap keyframes (keyframes.overlap_drop) then add to the map.
+  /// Without it such frames are bridged, the map stops growing and the track is lost a few frames
+  /// later. Needs a motion prior (from the third frame). 0 = off.
+  double guess_agreement_translation = 0.0;                ///< [m]
+  double guess_agreement_rotation = 1.0 * kDegToRad;       ///< [rad] (YAML `_deg`)
+  double guess_agreement_relative_inlier_ratio = 0.3;      ///< [0, 1]
   /// [m] recovery (after a rejected match): ICP from the same guess with the correspondence gate
   /// annealed from this value down to the tracking gate. 0 = no recovery attempt.
   double recovery_gate = 4.0;
