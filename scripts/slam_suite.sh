@@ -21,6 +21,12 @@
 #                stamps show the gaps): the drive is lost and must be found again on the revisits
 #   offset_revisits  config/sim/suite_offset_revisits.yaml: the same route on 22 m wide avenues,
 #                driven 4.5 m right of the centre line: the opposite passes 9 m across
+# Indoors (RGB-D, mapped with --indoor-config; the walks end in the room they start from):
+#   indoor_walk  indoor_loop (seed S): the reference walk through an office floor, 0.6 m/s
+#   indoor_fast  config/sim/suite_indoor_fast.yaml: the walk at 1.5 m/s looking around 45 deg to
+#                either side (fast rotation; views of consecutive frames share less)
+#   indoor_plain config/sim/suite_indoor_plain.yaml: the walk through empty rooms (bare walls:
+#                degenerate views for a depth-only ICP)
 # Each sequence is run with `--matcher icp` and with the configuration's matcher (obmnet+icp), and
 # once more per `--model` (the configuration's matcher with that network).
 # Columns: t_err / r_err (KITTI devkit), ATE RMSE, frames recovered / bridged, local-map restarts,
@@ -30,6 +36,7 @@
 # Options:
 #   --build DIR     build folder with bin/obm-map and bin/obm-sim       [default: ROOT/build]
 #   --config F      obm-map configuration                  [default: config/map_kitti.yaml]
+#   --indoor-config F  obm-map configuration of the indoor sequences [default: config/map_indoor.yaml]
 #   --only LIST     comma-separated subset of the sequences above      [default: all]
 #   --seed S        obm-sim seed of turn_gaps / turn_jumps / revisits     [default: 5]
 #   --nice N        niceness of every run                               [default: 5]
@@ -42,19 +49,21 @@ set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 BUILD=$ROOT/build
 CFG=$ROOT/config/map_kitti.yaml
-ONLY=corridor,open_road,urban,turn_gaps,turn_jumps,long_gaps,revisits,revisit_gaps,offset_revisits
+ONLY=corridor,open_road,urban,turn_gaps,turn_jumps,long_gaps,revisits,revisit_gaps,offset_revisits,indoor_walk,indoor_fast,indoor_plain
+ICFG=$ROOT/config/map_indoor.yaml
 SEED=5
 NICE=5
 RESUME=0
 SETS=()
 MODELS=()
 
-usage() { sed -n '2,39p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,47p' "$0" | sed 's/^# \{0,1\}//'; }
 POS=()
 while [[ $# -gt 0 ]]; do
   case $1 in
     --build) BUILD=$(cd "$2" && pwd); shift 2 ;;
     --config) CFG=$(cd "$(dirname "$2")" && pwd)/$(basename "$2"); shift 2 ;;
+    --indoor-config) ICFG=$(cd "$(dirname "$2")" && pwd)/$(basename "$2"); shift 2 ;;
     --only) ONLY=$2; shift 2 ;;
     --seed) SEED=$2; shift 2 ;;
     --nice) NICE=$2; shift 2 ;;
@@ -124,6 +133,7 @@ both() {  # both LABEL SEQ: the ICP-only and the OBMNet pipeline(s)
   run_map "$1.icp" "$2" --matcher icp
   run_map "$1.obmnet" "$2"
   local m
+  [[ $CFG == "$ICFG" ]] && return  # --model networks are LiDAR ones
   for m in "${MODELS[@]+"${MODELS[@]}"}"; do
     run_map "$1.obmnet_${m%%=*}" "$2" --set "matcher.obmnet.model_path=${m#*=}"
   done
@@ -174,6 +184,19 @@ fi
 if want offset_revisits; then
   simulate offset_revisits -c "$ROOT/config/sim/suite_offset_revisits.yaml"
   both offset_revisits "$DATA/offset_revisits"
+fi
+
+if want indoor_walk; then
+  simulate indoor_walk -p indoor_loop -s "$SEED"
+  CFG=$ICFG both indoor_walk "$DATA/indoor_walk"
+fi
+if want indoor_fast; then
+  simulate indoor_fast -c "$ROOT/config/sim/suite_indoor_fast.yaml"
+  CFG=$ICFG both indoor_fast "$DATA/indoor_fast"
+fi
+if want indoor_plain; then
+  simulate indoor_plain -c "$ROOT/config/sim/suite_indoor_plain.yaml"
+  CFG=$ICFG both indoor_plain "$DATA/indoor_plain"
 fi
 
 python3 "$ROOT/scripts/slam_suite_table.py" "$OUT" > "$OUT/table.md.tmp"

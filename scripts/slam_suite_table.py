@@ -89,7 +89,7 @@ def main():
     runs_dir = os.path.join(out, "runs")
     names = sorted(d for d in os.listdir(runs_dir) if os.path.isdir(os.path.join(runs_dir, d)))
     order = ["corridor", "open_road", "urban", "turn_gaps", "turn_jumps", "long_gaps", "revisits",
-             "revisit_gaps", "offset_revisits"]
+             "revisit_gaps", "offset_revisits", "indoor_walk", "indoor_fast", "indoor_plain"]
     names.sort(key=lambda n: (order.index(n.split(".")[0]) if n.split(".")[0] in order else 99, n))
     print("| sequence | pipeline | frames | length | t_err [%] | r_err [°/100 m] | ATE RMSE | recovered "
           "| bridged | restarts | loops | wrong loops | silent frames | frames/s |")
