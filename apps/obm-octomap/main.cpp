@@ -69,7 +69,7 @@ int main(int argc, char** argv) {
   app.add_option("--png-z-max", opt.top_view.z_max,
                  "top view: ignore voxels above this height [m] (e.g. ceilings) [default: none]");
   app.add_flag("--color", opt.color,
-               "build a ColorOcTree when the input has colour (RGB-D with PNG colour, coloured "
+               "build a ColorOcTree when the input has colour (RGB-D with colour images registered to depth, coloured "
                "rawlog clouds); the top view then shows voxel colours");
   app.add_option("--max-dt", opt.max_time_difference,
                  "TUM trajectories: largest |t_frame - t_pose| to associate [s] [default: 0.02]");

@@ -249,7 +249,7 @@ ExportSummary OctomapExporter::run() {
   if (opt_.color && !sum.color && sum.frames_integrated > 0)
     OBM_LOG_WARN(kLog, "--color: the clouds of '"
                            << opt_.input
-                           << "' carry no colour (no PNG colour images registered to depth, or "
+                           << "' carry no colour (no colour images registered to depth, or "
                               "a rawlog without coloured clouds); wrote an occupancy-only OcTree");
 
   // ---- 4. Outputs, atomically.
