@@ -122,8 +122,11 @@ run_map() {
   rm -rf "$dir"
   echo "== $name: obm-map -c $CFG -i $seq $*"
   mkdir -p "$(dirname "$dir")"
-  echo "obm-map -c $CFG -i $seq -g $seq/poses.txt --no-map $* ${SETS[*]}" > "$OUT/runs/$name.command.txt"
-  nice -n "$NICE" "$MAP" -c "$CFG" -i "$seq" -g "$seq/poses.txt" --no-map "$@" "${SETS[@]}" \
+  # KITTI folders are scored on poses.txt; RGB-D folders on their own groundtruth.txt.
+  local gt=()
+  [[ -d $seq/velodyne ]] && gt=(-g "$seq/poses.txt")
+  echo "obm-map -c $CFG -i $seq ${gt[*]} --no-map $* ${SETS[*]}" > "$OUT/runs/$name.command.txt"
+  nice -n "$NICE" "$MAP" -c "$CFG" -i "$seq" "${gt[@]}" --no-map "$@" "${SETS[@]}" \
     -o "$dir" -q > "$OUT/runs/$name.log" 2>&1 ||
     { echo "slam_suite.sh: obm-map failed for $name (see $OUT/runs/$name.log)" >&2; exit 1; }
   mv "$OUT/runs/$name.command.txt" "$dir/command.txt"

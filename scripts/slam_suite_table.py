@@ -65,7 +65,11 @@ def frame_statuses(path):
 
 
 def silent_frames(run, metrics):
-    gt_path = metrics.get("ground_truth")
+    # obm-sim writes poses.txt (KITTI format, one pose per frame) next to every sequence; the
+    # ground truth obm-map read may be another format (an RGB-D folder's groundtruth.txt).
+    gt_path = os.path.join(metrics.get("input", ""), "poses.txt")
+    if not os.path.exists(gt_path):
+        gt_path = metrics.get("ground_truth")
     est_path = os.path.join(run, "trajectory_kitti.txt")
     if not gt_path or not os.path.exists(gt_path) or not os.path.exists(est_path):
         return None
