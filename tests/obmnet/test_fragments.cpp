@@ -1,4 +1,4 @@
-// Indoor fragments for obm-train / obm-bench (apps/common/fragment_source): RIENet's 7Scenes
+// Indoor fragments for obm-train / obm-bench (libs/datasets, fragment_source): RIENet's 7Scenes
 // normalisation on real RGB-D frames (Open3D's test frames in the shared data).
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// LiDAR scan pairs of obm-train / obm-bench (apps/common/scan_source): RIENet's KITTI (i, i+gap)
+// LiDAR scan pairs of obm-train / obm-bench (libs/datasets, scan_source): RIENet's KITTI (i, i+gap)
 // protocol on the 6 real HDL-64 sweeps of the shared data, laid out as a KITTI odometry folder
 // (velodyne/ linked in place, calib and the first poses / times of sequence 00 beside them).
 #include <gtest/gtest.h>
