@@ -136,7 +136,7 @@ both() {  # both LABEL SEQ: the ICP-only and the OBMNet pipeline(s)
   run_map "$1.icp" "$2" --matcher icp
   run_map "$1.obmnet" "$2"
   local m
-  [[ $CFG == "$ICFG" ]] && return  # --model networks are LiDAR ones
+  [[ -d $2/velodyne ]] || return 0  # --model networks are LiDAR ones
   for m in "${MODELS[@]+"${MODELS[@]}"}"; do
     run_map "$1.obmnet_${m%%=*}" "$2" --set "matcher.obmnet.model_path=${m#*=}"
   done

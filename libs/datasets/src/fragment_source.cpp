@@ -12,7 +12,6 @@
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
 #include "obm/core/mesh.hpp"
-#include "obm/io/convert.hpp"
 #include "obm/io/rgbd.hpp"
 
 namespace fs = std::filesystem;
@@ -110,6 +109,7 @@ io::RgbdSequence openEntry(const std::string& dir, const std::string& entry,
                            const std::string& pose_labels = "") {
   const auto [layout, rel] = splitLayout(entry, default_layout);
   path = resolve(dir, rel);
+  if (!fs::is_directory(path)) throw IoError(path + ": RGB-D sequence folder not found");
   io::RgbdSequenceOptions so;
   if (!pose_labels.empty()) {
     // The labels take the place of the ground truth: the mapping app's trajectory of this
@@ -120,7 +120,6 @@ io::RgbdSequence openEntry(const std::string& dir, const std::string& entry,
                     ": pose labels (data.rgbd.pose_labels) not found; write them with "
                     "scripts/make_indoor_training_data.sh OUT_DIR BUILD_DIR labels");
   }
-  if (!fs::is_directory(path)) throw IoError(path + ": RGB-D sequence folder not found");
   return io::RgbdSequence::open(path, layout, so);
 }
 
