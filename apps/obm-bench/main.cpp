@@ -200,7 +200,7 @@ int main(int argc, char** argv) {
       log_level;
   std::string config_path = "", model = "";
   std::string protocol = "clean", group = "unseen";
-  int n_pairs = 200, threads = 2, num_points = -1, denoise = 0;
+  int n_pairs = 200, threads = 2, num_points = -1, denoise = 0, sweep_points = 0;
   std::uint64_t seed = 1;
   double recall_deg = 1.0, recall_trans = 0.1, jitter_sigma = -1.0, unit = 0.0, polish = -1.0,
          overlap_keep = -1.0;
@@ -269,6 +269,11 @@ int main(int argc, char** argv) {
   app.add_option("--write-pairs", write_pairs,
                  "also write the pairs to this folder (readable by --pairs)");
   app.add_option("--threads", threads, "threads for the network")->capture_default_str();
+  app.add_option("--sweep-points", sweep_points,
+                 "kitti protocol: voxel keypoints per sweep given to every method (default: the "
+                 "config's train.pairs.num_points); with a larger value than --num-points the "
+                 "network samples its own points from them, e.g. above the road for a model "
+                 "trained with ground_band");
   app.add_option("--num-points", num_points,
                  "points per cloud the network samples (clouds with fewer are kept whole); "
                  "default: every generated cloud whole (crops and outliers included); for "
@@ -344,6 +349,9 @@ int main(int argc, char** argv) {
       if (config_path.empty()) config_path = apps::findConfigFile("obmnet/train_lidar.yaml");
       const auto root = ConfigNode::loadFile(config_path);
       auto scans = datasets::ScanSourceConfig::load(root.child("data"));
+      // Every method sees whole sweeps: a model trained without the road cuts it itself
+      // (model.ground_band, recorded in the model file).
+      scans.ground_band = 0.0;
       if (!sequences.empty()) {
         scans.val_sequences = sequences;
       } else if (group != "val") {
@@ -352,6 +360,7 @@ int main(int argc, char** argv) {
       }
       int scan_points = 1024;
       root.child("train").child("pairs").get("num_points", scan_points);
+      if (sweep_points > 0) scan_points = sweep_points;
       const auto cls = pair_class.empty() ? datasets::ScanPairClass{scans.frame_gap, false}
                                           : datasets::ScanPairClass::parse(pair_class);
       pairs = datasets::scanPairs(scans, scans.val_sequences, cls, scan_points, n_pairs, seed);

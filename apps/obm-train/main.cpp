@@ -119,6 +119,14 @@ int main(int argc, char** argv) {
     std::unique_ptr<obm::obmnet::Trainer> trainer_ptr;
     if (source == "kitti") {
       auto scans = obm::datasets::ScanSourceConfig::load(data);
+      // Inference cuts the road as the model file says (model.ground_band): the training pairs
+      // must be cut the same way.
+      if (scans.ground_band != cfg.model.ground_band)
+        throw obm::ConfigError(config_path + ": data.ground_band (" +
+                               std::to_string(scans.ground_band) + ") and model.ground_band (" +
+                               std::to_string(cfg.model.ground_band) +
+                               ") differ: the network would see roads at inference that training "
+                               "removed, or the reverse");
       const int n_points = cfg.protocol.num_points;
       auto sampler = obm::datasets::scanPairSampler(scans, n_points, cfg.curriculum_epochs);
       auto val = obm::datasets::scanValidationPairs(scans, n_points, cfg.val_pairs, cfg.seed);

@@ -1,5 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <random>
+
 #include "obm/core/cloud_ops.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/mesh.hpp"
@@ -83,4 +86,46 @@ TEST(CloudOps, NormalizeVoxelSubsetCrop) {
 
   const auto r = cropRange(c, 0.0, 2.0);
   EXPECT_EQ(r.size(), 2u);
+}
+
+TEST(CloudOps, RemoveGroundCutsATiltedRoadAndKeepsWhatStandsOnIt) {
+  // A sweep-like cloud: a road plane 1.7 m below the sensor, tilted 3° about x, with a wall and
+  // two low boxes standing on it. Everything closer than 0.3 m to the road must go, nothing else.
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<float> u(-20.f, 20.f), h(0.f, 1.f);
+  const float slope = std::tan(3.f * 3.14159265f / 180.f);
+  auto road_z = [&](float y) { return -1.7f + slope * y; };
+  PointCloud c;
+  for (int i = 0; i < 3000; ++i) {  // the road, with 2 cm of noise
+    const float x = u(rng), y = u(rng);
+    c.points.emplace_back(x, y, road_z(y) + 0.02f * (h(rng) - 0.5f));
+  }
+  std::size_t above = 0;
+  for (int i = 0; i < 1500; ++i) {  // a wall at x = 8, 0.5–4 m above the road
+    const float y = u(rng);
+    c.points.emplace_back(8.f, y, road_z(y) + 0.5f + 3.5f * h(rng));
+    ++above;
+  }
+  for (int i = 0; i < 200; ++i) {  // a kerb-high box top 0.4 m above the road: kept
+    const float x = -5.f + h(rng), y = 3.f + h(rng);
+    c.points.emplace_back(x, y, road_z(y) + 0.4f);
+    ++above;
+  }
+  std::vector<std::size_t> kept;
+  const auto cut = removeGround(c, 0.3, 1, &kept);
+  EXPECT_EQ(cut.size(), above);
+  ASSERT_EQ(kept.size(), cut.size());
+  for (std::size_t i = 0; i < kept.size(); ++i) {
+    EXPECT_GE(kept[i], 3000u);
+    EXPECT_EQ(cut.points[i], c.points[kept[i]]);
+  }
+  Eigen::Vector4d plane;
+  std::mt19937_64 rng2(1);
+  ASSERT_TRUE(fitGroundPlane(c, rng2, &plane));
+  EXPECT_NEAR(std::acos(plane.z()) * 180.0 / 3.14159265358979, 3.0, 0.5);
+
+  // No road in view (a wall only): nothing is cut.
+  PointCloud wall;
+  for (int i = 0; i < 500; ++i) wall.points.emplace_back(8.f, u(rng), 4.f * h(rng));
+  EXPECT_EQ(removeGround(wall, 0.3).size(), wall.size());
 }

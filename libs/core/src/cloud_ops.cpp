@@ -1,5 +1,6 @@
 #include "obm/core/cloud_ops.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numeric>
 #include <unordered_map>
@@ -85,6 +86,61 @@ PointCloud cropRange(const PointCloud& cloud, double min_range, double max_range
     const double r = cloud.points[i].norm();
     if (r >= min_range && r <= max_range) keep.push_back(i);
   }
+  return cloud.select(keep);
+}
+
+bool fitGroundPlane(const PointCloud& cloud, std::mt19937_64& rng, Eigen::Vector4d* plane,
+                    double max_tilt_deg) {
+  const std::size_t n = cloud.size();
+  if (n < 30) return false;
+  // Candidates: the lowest third by height (the road, kerbs, the bases of walls).
+  std::vector<std::size_t> order(n);
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  const std::size_t m = n / 3;
+  std::nth_element(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(m), order.end(),
+                   [&](std::size_t a, std::size_t b) {
+                     return cloud.points[a].z() < cloud.points[b].z();
+                   });
+  order.resize(m);
+  constexpr double kThreshold = 0.15;
+  const double min_nz = std::cos(max_tilt_deg * 3.14159265358979323846 / 180.0);
+  std::uniform_int_distribution<std::size_t> pick(0, m - 1);
+  std::size_t best_count = 0;
+  Eigen::Vector4d best = Eigen::Vector4d::Zero();
+  for (int it = 0; it < 100; ++it) {
+    const Eigen::Vector3d a = cloud.points[order[pick(rng)]].cast<double>();
+    const Eigen::Vector3d b = cloud.points[order[pick(rng)]].cast<double>();
+    const Eigen::Vector3d c = cloud.points[order[pick(rng)]].cast<double>();
+    Eigen::Vector3d nrm = (b - a).cross(c - a);
+    const double len = nrm.norm();
+    if (len < 1e-9) continue;
+    nrm /= len;
+    if (nrm.z() < 0.0) nrm = -nrm;
+    if (nrm.z() < min_nz) continue;
+    const double d = -nrm.dot(a);
+    std::size_t count = 0;
+    for (const auto i : order)
+      if (std::abs(nrm.dot(cloud.points[i].cast<double>()) + d) < kThreshold) ++count;
+    if (count > best_count) {
+      best_count = count;
+      best << nrm, d;
+    }
+  }
+  if (best_count < m / 10 || best_count < 10) return false;
+  *plane = best;
+  return true;
+}
+
+PointCloud removeGround(const PointCloud& cloud, double band, std::uint64_t seed,
+                        std::vector<std::size_t>* indices_out) {
+  std::mt19937_64 rng(seed);
+  Eigen::Vector4d g;
+  std::vector<std::size_t> keep;
+  keep.reserve(cloud.size());
+  const bool found = fitGroundPlane(cloud, rng, &g);
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (!found || g.head<3>().dot(cloud.points[i].cast<double>()) + g[3] >= band) keep.push_back(i);
+  if (indices_out) *indices_out = keep;
   return cloud.select(keep);
 }
 

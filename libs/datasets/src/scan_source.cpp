@@ -20,7 +20,7 @@ namespace obm::datasets {
 ScanSourceConfig ScanSourceConfig::load(const ConfigNode& node) {
   ScanSourceConfig c;
   node.checkKeys({"source", "dir", "sequences", "val_sequences", "frame_gap", "frame_gaps",
-                  "voxel", "min_range", "max_range", "voxel_keypoints", "surface_points", "loop_fraction",
+                  "voxel", "min_range", "max_range", "ground_band", "voxel_keypoints", "surface_points", "loop_fraction",
                   "loop_max_distance", "loop_min_separation", "yaw_augment_deg", "pose_labels",
                   "label_yaw_hypotheses"});
   std::string source = "kitti";
@@ -35,6 +35,7 @@ ScanSourceConfig ScanSourceConfig::load(const ConfigNode& node) {
   node.get("voxel", c.voxel);
   node.get("min_range", c.min_range);
   node.get("max_range", c.max_range);
+  node.get("ground_band", c.ground_band);
   node.get("frame_gaps", c.frame_gaps);
   node.get("voxel_keypoints", c.voxel_keypoints);
   node.get("surface_points", c.surface_points);
@@ -65,6 +66,7 @@ ScanSourceConfig ScanSourceConfig::load(const ConfigNode& node) {
   if (!(c.voxel >= 0.0)) throw ConfigError(node.where("voxel") + ": must be >= 0");
   if (c.min_range < 0.0 || c.max_range < 0.0)
     throw ConfigError(node.where("max_range") + ": ranges must be >= 0");
+  if (!(c.ground_band >= 0.0)) throw ConfigError(node.where("ground_band") + ": must be >= 0");
   return c;
 }
 
@@ -106,6 +108,7 @@ PointCloud loadScan(const io::KittiSequence& s, std::size_t i, const ScanSourceC
   PointCloud scan = s.scan(i);
   if (c.min_range > 0.0 || c.max_range > 0.0)
     scan = cropRange(scan, c.min_range, c.max_range > 0.0 ? c.max_range : 1e30);
+  if (c.ground_band > 0.0) scan = removeGround(scan, c.ground_band, i + 1);
   return scan;
 }
 

@@ -64,14 +64,32 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
   RegistrationResult r;
   std::mt19937_64 rng(impl_->opt.seed);
   const auto n = static_cast<std::size_t>(impl_->opt.num_points);
+  // The model was trained on sweeps without their road (ObmNetConfig::ground_band): cut it the
+  // same way, keeping the map from the kept points back to the input indices.
+  std::vector<std::size_t> source_kept;
+  PointCloud source_cut, target_cut;
+  const bool cut = cfg.ground_band > 0.0;
+  if (cut) {
+    source_cut = removeGround(source, cfg.ground_band, 1, &source_kept);
+    target_cut = removeGround(target, cfg.ground_band, 2);
+    if (source_cut.size() < need || target_cut.size() < need)
+      throw ContractError("ObmNetRegistrar::align: fewer than " + std::to_string(need) +
+                          " points above the ground plane (source " +
+                          std::to_string(source_cut.size()) + ", target " +
+                          std::to_string(target_cut.size()) + ")");
+  }
+  const PointCloud& source_in = cut ? source_cut : source;
+  const PointCloud& target_in = cut ? target_cut : target;
   if (cfg.voxel_keypoints) {
     // The model was trained on voxel keypoints (scans): sample as in training.
-    r.source_sampled = obmnet::voxelKeypoints(source, n, rng, &r.source_indices);
-    r.target_sampled = obmnet::voxelKeypoints(target, n, rng);
+    r.source_sampled = obmnet::voxelKeypoints(source_in, n, rng, &r.source_indices);
+    r.target_sampled = obmnet::voxelKeypoints(target_in, n, rng);
   } else {
-    r.source_sampled = randomSubset(source, n, rng, &r.source_indices);
-    r.target_sampled = randomSubset(target, n, rng);
+    r.source_sampled = randomSubset(source_in, n, rng, &r.source_indices);
+    r.target_sampled = randomSubset(target_in, n, rng);
   }
+  if (cut)
+    for (auto& i : r.source_indices) i = source_kept[i];
   const auto norm = obmnet::PairNormalization::compute(r.source_sampled, r.target_sampled,
                                                        impl_->meta.normalize_radius,
                                                        cfg.shared_centroid);

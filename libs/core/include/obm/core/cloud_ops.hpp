@@ -21,4 +21,18 @@ PointCloud randomSubset(const PointCloud& cloud, std::size_t n, std::mt19937_64&
 /// Keeps the points whose range ‖p‖ from the frame origin is within [min_range, max_range].
 PointCloud cropRange(const PointCloud& cloud, double min_range, double max_range);
 
+/// The ground plane of a gravity-aligned sweep, n·p + d = 0 with n·z > 0 (n unit), fitted by
+/// RANSAC (threshold 0.15 m, normals within `max_tilt_deg` of z) to the lowest third of the
+/// points. Returns false when no plane holds 10 % of those points (no ground seen).
+bool fitGroundPlane(const PointCloud& cloud, std::mt19937_64& rng, Eigen::Vector4d* plane,
+                    double max_tilt_deg = 20.0);
+
+/// Drops the points less than `band` [m] above the fitted ground plane (and those below it):
+/// the road of a LiDAR sweep, whose scan rings move with the sensor and so look the same in
+/// two sweeps metres apart, pulling a feature match towards "not moved". Returns the cloud
+/// unchanged when no ground plane is found. Deterministic for a given `seed`. `indices_out`
+/// (optional) receives the kept input indices.
+PointCloud removeGround(const PointCloud& cloud, double band, std::uint64_t seed = 1,
+                        std::vector<std::size_t>* indices_out = nullptr);
+
 }  // namespace obm

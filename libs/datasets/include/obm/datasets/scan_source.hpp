@@ -29,6 +29,9 @@ struct ScanSourceConfig {
   double voxel = 0.3;                      ///< [m] voxel grid before the random N-point sample
   double min_range = 0.0;                  ///< [m] returns closer than this are dropped (0 = keep)
   double max_range = 0.0;                  ///< [m] returns farther than this are dropped (0 = keep)
+  /// [m] drop the returns less than this above the sweep's fitted ground plane (removeGround);
+  /// 0 = keep the road.
+  double ground_band = 0.0;
   /// N points per scan as voxel keypoints (obmnet::voxelKeypoints) rather than a random subset.
   bool voxel_keypoints = false;
   /// Surface samples of each target (voxel keypoints of the voxelised sweep) with PCA normals, for

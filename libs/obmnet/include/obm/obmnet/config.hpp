@@ -62,6 +62,12 @@ struct ObmNetConfig {
   /// the two centroids, which moves with what enters and leaves the sensor's range (metres on a
   /// street). Recorded with the weights so that inference normalises as training did.
   bool shared_centroid = false;
+  /// [m] LiDAR sweeps: the registrar drops the returns less than this above each cloud's fitted
+  /// ground plane (obm::removeGround) before sampling; 0 = off. The road's scan rings move with
+  /// the sensor, so they look alike in two sweeps metres apart and pull soft matches towards
+  /// "not moved". Training pairs must be cut the same way (data.ground_band, checked by
+  /// obm-train). Recorded with the weights.
+  double ground_band = 0.0;
   /// The overlap sampler at inference: the relaxed draw softmax((log π + g)/τ) that training
   /// uses (with the eval-mode noise stream), instead of the one-hot draw one_hot(argmax(log π + g)).
   /// A network trained on the relaxed draws learns τ and the fusion on them; where τ grows, a
