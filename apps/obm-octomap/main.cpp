@@ -7,7 +7,7 @@
 #include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
-#include "obm/mapping/octomap_exporter.hpp"
+#include "obm/slam/octomap_exporter.hpp"
 
 namespace {
 std::string fmt(double v) {
@@ -31,7 +31,7 @@ int main(int argc, char** argv) {
       "or TUM format (t tx ty tz qx qy qz qw: sensor poses, associated by time stamp), or an "
       "obm-map output folder holding trajectory_kitti.txt / trajectory_tum.txt.\n"
       "Ctrl-C stops after the current scan and writes the map integrated so far."};
-  obm::mapping::ExporterOptions opt;
+  obm::slam::ExporterOptions opt;
   std::string format = "auto", config, log_level;
   double resolution = -1.0, max_range = -1.0, min_range = -1.0, voxel = -1.0;
   bool quiet = false, no_discretize = false;
@@ -100,14 +100,14 @@ int main(int argc, char** argv) {
       if (min_range >= 0.0) opt.mapping.min_range = min_range;
       if (voxel >= 0.0) opt.mapping.prefilter_voxel = voxel;
       if (no_discretize) opt.mapping.discretize = false;
-      opt.format = obm::mapping::parseTrajectoryFormat(format);
+      opt.format = obm::slam::parseTrajectoryFormat(format);
       opt.top_view.use_voxel_color = opt.color;
       opt.progress = !quiet;
       opt.cancel = &obm::apps::installCancelHandler();
 
-      obm::mapping::OctomapExporter exporter(opt);
+      obm::slam::OctomapExporter exporter(opt);
       const auto summary = exporter.run();
-      std::cout << obm::mapping::formatSummary(summary);
+      std::cout << obm::slam::formatSummary(summary);
       if (summary.interrupted) {
         std::cerr << "obm-octomap: interrupted; wrote the " << summary.frames_integrated << " of "
                   << summary.frames_selected << " frames integrated so far to '" << summary.output

@@ -1,4 +1,4 @@
-#include "obm/mapping/octomap_exporter.hpp"
+#include "obm/slam/octomap_exporter.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -18,9 +18,11 @@
 #include "obm/io/kitti.hpp"
 #include "obm/io/trajectory.hpp"
 
-namespace obm::mapping {
+namespace obm::slam {
 
 namespace fs = std::filesystem;
+using mapping::InsertResult;
+using mapping::MapKind;
 using InputKind = io::DatasetKind;
 
 namespace {
@@ -290,4 +292,4 @@ std::string formatSummary(const ExportSummary& s) {
   return os.str();
 }
 
-}  // namespace obm::mapping
+}  // namespace obm::slam

@@ -14,17 +14,17 @@
 #include "obm/io/rawlog.hpp"
 #include "obm/io/rgbd.hpp"
 #include "obm/io/trajectory.hpp"
-#include "obm/mapping/octomap_exporter.hpp"
+#include "obm/slam/octomap_exporter.hpp"
 #include "test_data.hpp"
 
 namespace {
 
 using obm::Isometry3d;
 using obm::mapping::CellState;
-using obm::mapping::ExporterOptions;
+using obm::slam::ExporterOptions;
 using obm::mapping::OccupancyMap;
-using obm::mapping::OctomapExporter;
-using obm::mapping::TrajectoryFormat;
+using obm::slam::OctomapExporter;
+using obm::slam::TrajectoryFormat;
 namespace fs = std::filesystem;
 
 // The room in the world frame (= LiDAR frame of the first scan): 8 × 6 × 3.2 m, floor 1.5 m below
@@ -123,7 +123,7 @@ TEST(OctomapExporter, KittiFolderWithCameraFramePoses) {
   expectBoxRoom(OccupancyMap::read(out + "/map.bt"));
   EXPECT_TRUE(fs::is_regular_file(out + "/top.png"));
   EXPECT_GT(sum.top_view.width, 0);
-  const std::string text = obm::mapping::formatSummary(sum);
+  const std::string text = obm::slam::formatSummary(sum);
   EXPECT_NE(text.find("leaves"), std::string::npos);
   EXPECT_NE(text.find("bounding box"), std::string::npos);
 }
@@ -161,18 +161,18 @@ TEST(OctomapExporter, DetectsTrajectoryFormat) {
     std::ofstream(dir + "/t.txt") << "# timestamp tx ty tz qx qy qz qw\n\n0.5 1 2 3 0 0 0 1\n";
     std::ofstream(dir + "/bad.txt") << "# comment\n1 2 3 4 5\n";
   }
-  EXPECT_EQ(obm::mapping::detectTrajectoryFormat(dir + "/k.txt"), TrajectoryFormat::Kitti);
-  EXPECT_EQ(obm::mapping::detectTrajectoryFormat(dir + "/t.txt"), TrajectoryFormat::Tum);
+  EXPECT_EQ(obm::slam::detectTrajectoryFormat(dir + "/k.txt"), TrajectoryFormat::Kitti);
+  EXPECT_EQ(obm::slam::detectTrajectoryFormat(dir + "/t.txt"), TrajectoryFormat::Tum);
   try {
-    obm::mapping::detectTrajectoryFormat(dir + "/bad.txt");
+    obm::slam::detectTrajectoryFormat(dir + "/bad.txt");
     FAIL();
   } catch (const obm::FormatError& e) {
     EXPECT_EQ(e.line(), 2u);
     EXPECT_EQ(e.file(), dir + "/bad.txt");
   }
-  EXPECT_THROW(obm::mapping::detectTrajectoryFormat(dir + "/none.txt"), obm::IoError);
-  EXPECT_EQ(obm::mapping::parseTrajectoryFormat("TUM"), TrajectoryFormat::Tum);
-  EXPECT_THROW(obm::mapping::parseTrajectoryFormat("g2o"), obm::ConfigError);
+  EXPECT_THROW(obm::slam::detectTrajectoryFormat(dir + "/none.txt"), obm::IoError);
+  EXPECT_EQ(obm::slam::parseTrajectoryFormat("TUM"), TrajectoryFormat::Tum);
+  EXPECT_THROW(obm::slam::parseTrajectoryFormat("g2o"), obm::ConfigError);
 }
 
 // Runs the exporter expecting `E`; checks that the message names `needle` and nothing was written.

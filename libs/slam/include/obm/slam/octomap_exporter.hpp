@@ -25,7 +25,13 @@
 #include "obm/mapping/mapping_params.hpp"
 #include "obm/mapping/occupancy_map.hpp"
 
-namespace obm::mapping {
+namespace obm::slam {
+
+using mapping::MappingParams;
+using mapping::OccupancyMap;
+using mapping::TopViewInfo;
+using mapping::TopViewOptions;
+using mapping::MapStats;
 
 /// Layout of a trajectory file.
 enum class TrajectoryFormat {
@@ -111,4 +117,4 @@ class OctomapExporter {
 /// bounding box, time.
 std::string formatSummary(const ExportSummary& summary);
 
-}  // namespace obm::mapping
+}  // namespace obm::slam
