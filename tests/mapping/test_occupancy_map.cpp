@@ -355,17 +355,15 @@ TEST(OccupancyMap, ColorTreeWhenColoursGiven) {
   EXPECT_FALSE(plain.color(p_wall, rgb));
 }
 
-TEST(OccupancyMap, TopViewPngMatchesExtent) {
-  const std::string dir = obm::test::scratchDir("mapping_png");
+TEST(OccupancyMap, TopViewMatchesExtent) {
   const auto wall = obm::test::wallCloud(kWallDistance, 2.0, 1.0, 0.05);
   const Isometry3d T = sensorPose();
   OccupancyMap map(exactParams());
   map.insert(wall, T);
   const auto s = map.stats();
-  const auto info = map.writeTopViewPng(dir + "/top.png");
-  const auto img = obm::io::readColorPng(dir + "/top.png");
-  EXPECT_EQ(img.width, info.width);
-  EXPECT_EQ(img.height, info.height);
+  const auto img = map.renderTopView();
+  const auto& info = img.info;
+  EXPECT_EQ(img.rgb.size(), 3u * static_cast<std::size_t>(info.width) * info.height);
   EXPECT_EQ(info.width, std::lround((s.bbox_max.x() - s.bbox_min.x()) / kRes));
   EXPECT_EQ(info.height, std::lround((s.bbox_max.y() - s.bbox_min.y()) / kRes));
   EXPECT_NEAR(info.pixel_size, kRes, 1e-12);
@@ -375,7 +373,7 @@ TEST(OccupancyMap, TopViewPngMatchesExtent) {
   const auto pixelAt = [&](const Eigen::Vector3d& p_world) {
     const int col = static_cast<int>(std::floor((p_world.x() - info.x_min) / info.pixel_size));
     const int row = static_cast<int>(std::floor((info.y_max - p_world.y()) / info.pixel_size));
-    EXPECT_TRUE(col >= 0 && col < img.width && row >= 0 && row < img.height);
+    EXPECT_TRUE(col >= 0 && col < info.width && row >= 0 && row < info.height);
     return img.at(col, row);
   };
   const obm::Color3u8 white(255, 255, 255);
@@ -392,16 +390,15 @@ TEST(OccupancyMap, TopViewPngMatchesExtent) {
   // Larger pixels shrink the picture accordingly; an empty map has no picture.
   obm::mapping::TopViewOptions o;
   o.pixel_size = 2 * kRes;
-  const auto half = map.writeTopViewPng(dir + "/half.png", o);
+  const auto half = map.renderTopView(o).info;
   EXPECT_EQ(half.width, (info.width + 1) / 2);
   // A height window below the wall's lowest voxel (world z from −0.6 m) hides it.
   obm::mapping::TopViewOptions low;
   low.z_max = -0.7;
-  const auto hidden = map.writeTopViewPng(dir + "/low.png", low);
+  const auto hidden = map.renderTopView(low).info;
   EXPECT_EQ(hidden.occupied_pixels, 0u);
   OccupancyMap empty(exactParams());
-  EXPECT_THROW(empty.writeTopViewPng(dir + "/empty.png"), obm::ContractError);
-  EXPECT_FALSE(fs::exists(dir + "/empty.png"));
+  EXPECT_THROW(empty.renderTopView(), obm::ContractError);
 }
 
 TEST(OccupancyMap, WriteRejectsUnknownExtensionAndMissingFolder) {

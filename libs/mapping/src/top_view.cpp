@@ -7,7 +7,6 @@
 #include <vector>
 
 #include "obm/core/errors.hpp"
-#include "obm/io/rgbd.hpp"
 #include "obm/mapping/occupancy_map.hpp"
 #include "tree_access.hpp"
 
@@ -38,11 +37,10 @@ constexpr std::uint8_t kUnknownWhite = 255;
 
 }  // namespace
 
-TopViewInfo OccupancyMap::writeTopViewPng(const std::string& path,
-                                          const TopViewOptions& options) const {
+TopView OccupancyMap::renderTopView(const TopViewOptions& options) const {
   const MapStats s = stats();
-  if (s.empty()) throw ContractError("writeTopViewPng('" + path + "'): the map is empty");
-  if (options.max_pixels < 1) throw ContractError("writeTopViewPng: max_pixels must be >= 1");
+  if (s.empty()) throw ContractError("renderTopView: the map is empty");
+  if (options.max_pixels < 1) throw ContractError("renderTopView: max_pixels must be >= 1");
   const double res = impl_->params.resolution;
   TopViewInfo info;
   info.pixel_size = options.pixel_size > 0.0 ? options.pixel_size : res;
@@ -125,9 +123,7 @@ TopViewInfo OccupancyMap::writeTopViewPng(const std::string& path,
   }
   const double span = std::max(info.z_high - info.z_low, 1e-9);
 
-  io::ColorImage img;
-  img.width = info.width;
-  img.height = info.height;
+  TopView img;
   img.rgb.assign(3 * n, kUnknownWhite);
   for (std::size_t k = 0; k < n; ++k) {
     Color3u8 c = Color3u8::Constant(kUnknownWhite);
@@ -140,8 +136,8 @@ TopViewInfo OccupancyMap::writeTopViewPng(const std::string& path,
     }
     for (int ch = 0; ch < 3; ++ch) img.rgb[3 * k + ch] = c[ch];
   }
-  io::writeColorPng(path, img);
-  return info;
+  img.info = info;
+  return img;
 }
 
 }  // namespace obm::mapping

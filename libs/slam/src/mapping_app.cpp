@@ -26,6 +26,7 @@
 #include "obm/io/kitti.hpp"
 #include "obm/io/trajectory.hpp"
 #include "obm/registration/confidence.hpp"
+#include "top_view_png.hpp"
 
 namespace fs = std::filesystem;
 
@@ -450,7 +451,7 @@ RunSummary MappingApp::run() {
         mapping::TopViewOptions tv;
         tv.max_pixels = cfg.output.png_max_pixels;
         tv.z_max = cfg.output.png_z_max;
-        mapper->map().writeTopViewPng(file("map_topview.png"), tv);
+        writeTopViewPng(mapper->map(), file("map_topview.png"), tv);
       }
     } else {
       OBM_LOG_WARN(kLog, "no keyframe was integrated: no map written");

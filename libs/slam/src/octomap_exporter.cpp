@@ -1,5 +1,7 @@
 #include "obm/slam/octomap_exporter.hpp"
 
+#include "top_view_png.hpp"
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -263,7 +265,7 @@ ExportSummary OctomapExporter::run() {
     } else {
       TopViewOptions tv = opt_.top_view;
       tv.use_voxel_color = tv.use_voxel_color && sum.color;
-      sum.top_view = map->writeTopViewPng(opt_.png, tv);
+      sum.top_view = writeTopViewPng(*map, opt_.png, tv);
       sum.png = opt_.png;
     }
   }

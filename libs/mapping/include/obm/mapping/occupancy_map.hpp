@@ -13,6 +13,7 @@
 /// maps are independent.
 #include <Eigen/Core>
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <limits>
 #include <memory>
@@ -94,6 +95,18 @@ struct TopViewInfo {
   std::size_t free_pixels = 0;      ///< columns known free only
 };
 
+/// A rendered top view: its geometry and the pixels, row-major from the top-left corner.
+struct TopView {
+  TopViewInfo info;
+  std::vector<std::uint8_t> rgb;  ///< info.width · info.height · 3 bytes
+  /// The pixel at column `col`, row `row`.
+  Color3u8 at(int col, int row) const {
+    const std::size_t k = 3 * (static_cast<std::size_t>(row) * static_cast<std::size_t>(info.width) +
+                               static_cast<std::size_t>(col));
+    return Color3u8(rgb[k], rgb[k + 1], rgb[k + 2]);
+  }
+};
+
 /// A cloud in its sensor frame and the pose of that sensor in the world.
 struct PosedCloud {
   PointCloud cloud;                                    ///< points in the sensor frame
@@ -173,11 +186,11 @@ class OccupancyMap {
   /// writeBinary for `*.bt`, writeFull for `*.ot`; ConfigError for another extension.
   void write(const std::string& path);
 
-  /// Writes the top view as an RGB PNG (libpng) atomically: each pixel column shows the height of
-  /// the highest occupied voxel (blue low → green → yellow → red high, see TopViewInfo::z_low),
-  /// light grey where the column is known free only, white where unknown. Throws IoError on
-  /// failure, ContractError for an empty map.
-  TopViewInfo writeTopViewPng(const std::string& path, const TopViewOptions& options = {}) const;
+  /// Renders the top view: each pixel column shows the height of the highest occupied voxel
+  /// (blue low → green → yellow → red high, see TopViewInfo::z_low), or its colour in a Color
+  /// map, light grey where the column is known free only, white where unknown. Throws
+  /// ContractError for an empty map. (obm-map and obm-octomap write it as a PNG.)
+  TopView renderTopView(const TopViewOptions& options = {}) const;
 
  private:
   struct Impl;
