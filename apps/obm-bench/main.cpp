@@ -39,11 +39,11 @@ std::vector<std::string> splitList(const std::string& s) {
 /// `soft_sampling`: −1 = as the model file says, 0 = one-hot, 1 = relaxed overlap draws (--sampling).
 bench::Method obmnetMethod(const std::string& name, const std::string& model, int threads,
                            int num_points, int denoise, int soft_sampling) {
-  ObmNetRegistrar::Options o{model, num_points, threads, 0, denoise};
+  obmnet::ObmNetRegistrar::Options o{model, num_points, threads, 0, denoise};
   o.soft_sampling = soft_sampling;
-  auto reg = std::make_shared<ObmNetRegistrar>(o);
+  auto reg = std::make_shared<obmnet::ObmNetRegistrar>(o);
   return {name, [reg](const PointCloud& s, const PointCloud& t) {
-            const RegistrationResult r = reg->align(s, t);
+            const obmnet::RegistrationResult r = reg->align(s, t);
             bench::MethodResult out(r.T_target_source);
             out.scores = {{"keypoint_fitness", r.fitness}, {"overlap", r.overlap}};
             return out;
@@ -54,8 +54,8 @@ bench::Method obmnetMethod(const std::string& name, const std::string& model, in
 /// kernel at 0.02, up to 60 iterations, then the point-to-point polish down to `polish` (0 = none;
 /// IcpParams explains when it helps). `unit` scales every length for data in other units (the
 /// KITTI protocol's sparse 1024-point sweeps use unit = 20 m: a 2 m gate, 0.4 m kernel).
-IcpParams objectIcpParams(double unit, double polish) {
-  IcpParams p;
+registration::IcpParams objectIcpParams(double unit, double polish) {
+  registration::IcpParams p;
   p.initial_max_correspondence_distance = 0.5 * unit;
   p.max_correspondence_distance = 0.1 * unit;
   p.kernel_scale = 0.02 * unit;
@@ -67,20 +67,21 @@ IcpParams objectIcpParams(double unit, double polish) {
   return p;
 }
 
-ConfidenceParams objectConfidenceParams(double unit) {
-  ConfidenceParams c;
+registration::ConfidenceParams objectConfidenceParams(double unit) {
+  registration::ConfidenceParams c;
   c.inlier_threshold = 0.05 * unit;
   c.min_sigma = 0.001 * unit;
   return c;
 }
 
-std::shared_ptr<IcpMatcher> objectIcpMatcher(double unit, double polish) {
-  return std::make_shared<IcpMatcher>(objectIcpParams(unit, polish), objectConfidenceParams(unit));
+std::shared_ptr<registration::IcpMatcher> objectIcpMatcher(double unit, double polish) {
+  return std::make_shared<registration::IcpMatcher>(objectIcpParams(unit, polish),
+                                                    objectConfidenceParams(unit));
 }
 
 /// A matcher's pose with its confidence scores: ICP's own fitness and inlier ratio, and for the
 /// OBMNet matchers the bias-weighted confidence (MatchResult::network_confidence).
-bench::MethodResult matchResult(const MatchResult& r) {
+bench::MethodResult matchResult(const registration::MatchResult& r) {
   bench::MethodResult out(r.T_target_source);
   out.scores = {{"fitness", r.fitness}, {"inlier_ratio", r.inlier_ratio}};
   if (r.alpha != 1.0 || r.network_confidence >= 0.0)
@@ -89,7 +90,8 @@ bench::MethodResult matchResult(const MatchResult& r) {
 }
 
 /// A bench row that runs `matcher` from the identity.
-bench::Method matcherMethod(std::string name, std::shared_ptr<const ScanMatcher> matcher) {
+bench::Method matcherMethod(std::string name,
+                            std::shared_ptr<const registration::ScanMatcher> matcher) {
   return {std::move(name), [matcher](const PointCloud& s, const PointCloud& t) {
             return matchResult(matcher->match(s, t, Isometry3d::Identity()));
           }};
@@ -98,16 +100,18 @@ bench::Method matcherMethod(std::string name, std::shared_ptr<const ScanMatcher>
 /// The refinement after the network: the same ICP without the coarse start. The network leaves a
 /// few degrees (≈ 0.05 at the unit sphere's surface), well inside the final 0.1 gate; a 0.5 start
 /// gate would pair the parts outside the overlap of partial pairs and pull the pose off.
-IcpParams objectRefineIcpParams(double unit, double polish) {
-  IcpParams p = objectIcpParams(unit, polish);
+registration::IcpParams objectRefineIcpParams(double unit, double polish) {
+  registration::IcpParams p = objectIcpParams(unit, polish);
   p.initial_max_correspondence_distance = p.max_correspondence_distance;
   return p;
 }
 
-std::shared_ptr<ObmNetIcpMatcher> obmnetIcpMatcher(const std::string& model, int threads,
-                                                   int num_points, int denoise, int soft_sampling,
-                                                   double unit, double polish, double overlap_keep) {
-  ObmNetMatcherParams p;
+std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(const std::string& model,
+                                                                 int threads, int num_points,
+                                                                 int denoise, int soft_sampling,
+                                                                 double unit, double polish,
+                                                                 double overlap_keep) {
+  registration::ObmNetMatcherParams p;
   p.denoise_neighbors = denoise;
   p.soft_sampling = soft_sampling;
   p.model_path = model;
@@ -116,21 +120,22 @@ std::shared_ptr<ObmNetIcpMatcher> obmnetIcpMatcher(const std::string& model, int
   p.pre_align = false;
   p.keep_init_if_better = false;
   p.overlap_stage_keep = overlap_keep;
-  return std::make_shared<ObmNetIcpMatcher>(p, objectRefineIcpParams(unit, polish),
-                                            objectConfidenceParams(unit));
+  return std::make_shared<registration::ObmNetIcpMatcher>(p, objectRefineIcpParams(unit, polish),
+                                                          objectConfidenceParams(unit));
 }
 
 /// Both starts a user without a prior has: the network's pose (then the refinement, as
 /// `obmnet+icp`) and the identity (the `icp` row); the result that pairs more source points within
 /// the final gate wins. Neither start sees the ground truth; it costs both rows' time.
-bench::Method obmnetIcpOrIcpMethod(std::shared_ptr<const ScanMatcher> net,
-                                   std::shared_ptr<const ScanMatcher> icp) {
+bench::Method obmnetIcpOrIcpMethod(std::shared_ptr<const registration::ScanMatcher> net,
+                                   std::shared_ptr<const registration::ScanMatcher> icp) {
   return {"obmnet+icp|icp", [net, icp](const PointCloud& s, const PointCloud& t) {
-            const MatchResult a = net->match(s, t, Isometry3d::Identity());
-            const MatchResult b = icp->match(s, t, Isometry3d::Identity());
-            auto paired = [](const MatchResult& r) {
-              return r.status != MatchStatus::TooFewCorrespondences &&
-                     r.status != MatchStatus::EmptyInput && r.status != MatchStatus::TooFewPoints;
+            const registration::MatchResult a = net->match(s, t, Isometry3d::Identity());
+            const registration::MatchResult b = icp->match(s, t, Isometry3d::Identity());
+            auto paired = [](const registration::MatchResult& r) {
+              return r.status != registration::MatchStatus::TooFewCorrespondences &&
+                     r.status != registration::MatchStatus::EmptyInput &&
+                     r.status != registration::MatchStatus::TooFewPoints;
             };
             const bool take_b = paired(b) && (!paired(a) ||
                                               b.num_correspondences > a.num_correspondences);
@@ -140,23 +145,25 @@ bench::Method obmnetIcpOrIcpMethod(std::shared_ptr<const ScanMatcher> net,
 
 /// The Overlap Bias Matching Module as a plug-in (`obmm+icp`): ICP from the identity whose
 /// residuals are weighted by the module's ω (ObmmIcpMatcher); the same ICP as the `icp` row.
-std::shared_ptr<ObmmIcpMatcher> obmmIcpMatcher(const std::string& model, int threads,
-                                               int num_points, double unit, double polish) {
-  ObmNetMatcherParams p;
+std::shared_ptr<registration::ObmmIcpMatcher> obmmIcpMatcher(const std::string& model, int threads,
+                                                             int num_points, double unit,
+                                                             double polish) {
+  registration::ObmNetMatcherParams p;
   p.model_path = model;
   p.num_points = num_points;
   p.threads = threads;
   p.pre_align = false;
-  return std::make_shared<ObmmIcpMatcher>(p, objectIcpParams(unit, polish),
-                                          objectConfidenceParams(unit));
+  return std::make_shared<registration::ObmmIcpMatcher>(p, objectIcpParams(unit, polish),
+                                                        objectConfidenceParams(unit));
 }
 
 /// `obmm+<peer>`: the peer (FGR or RANSAC on FPFH) on the points the module predicts in the
 /// overlap only — the fraction `keep` of each cloud's network points with the largest ω.
-bench::Method overlapRestricted(std::string name, std::shared_ptr<const OverlapPredictor> pred,
+bench::Method overlapRestricted(std::string name,
+                                std::shared_ptr<const registration::OverlapPredictor> pred,
                                 bench::Method peer, double keep) {
   return {std::move(name), [pred, peer, keep](const PointCloud& s, const PointCloud& t) {
-            const OverlapPrediction o = pred->predict(s, t);
+            const registration::OverlapPrediction o = pred->predict(s, t);
             auto top = [keep](const std::vector<Vector3f>& pts, const std::vector<double>& w) {
               std::vector<std::size_t> order(pts.size());
               std::iota(order.begin(), order.end(), std::size_t{0});
@@ -464,11 +471,11 @@ int main(int argc, char** argv) {
       if (!methods_arg.empty()) {
         methods.push_back(
             matcherMethod("obmm+icp", obmmIcpMatcher(model, threads, num_points, unit, polish)));
-        ObmNetMatcherParams pp;
+        registration::ObmNetMatcherParams pp;
         pp.model_path = model;
         pp.num_points = num_points;
         pp.threads = threads;
-        const auto pred = std::make_shared<const OverlapPredictor>(pp);
+        const auto pred = std::make_shared<const registration::OverlapPredictor>(pp);
         const double keep = overlap_keep > 0.0 ? overlap_keep : 0.5;
         for (const auto& m : o3d) {
           if (m.name == "o3d_fgr") methods.push_back(overlapRestricted("obmm+fgr", pred, m, keep));

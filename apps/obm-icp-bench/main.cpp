@@ -82,9 +82,10 @@ int run(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   if (data.empty()) throw ConfigError("no --data folder and OBM_SHARED_DATA is not set");
 
-  IcpParams base;
+  registration::IcpParams base;
   base.max_correspondence_distance = 1.0;
-  if (!config.empty()) base = IcpParams::load(ConfigNode::loadFile(config).child("icp"));
+  if (!config.empty())
+    base = registration::IcpParams::load(ConfigNode::loadFile(config).child("icp"));
 
   std::vector<PointCloud> scans;
   for (int i = first; i < first + count; ++i) {
@@ -98,11 +99,11 @@ int run(int argc, char** argv) {
     std::vector<PointCloud> down;
     for (const auto& s : scans) down.push_back(voxelDownsample(s, voxel));
     for (double th : parseList(threads)) {
-      IcpParams p = base;
+      registration::IcpParams p = base;
       p.threads = int(th);
       p.source_voxel = 0.0;  // clouds are down-sampled once above
       p.target_voxel = 0.0;
-      const IcpMatcher icp(p);
+      const registration::IcpMatcher icp(p);
       Row row;
       row.voxel = voxel;
       row.threads = p.threads;
@@ -110,10 +111,10 @@ int run(int argc, char** argv) {
       std::vector<Isometry3d> step;  // T_{i←i+1}
       for (std::size_t i = 0; i + 1 < down.size(); ++i) {
         std::vector<double> tp, tm, tc;
-        MatchResult r;
+        registration::MatchResult r;
         for (int k = 0; k < repeats; ++k) {
           Timer t;
-          const PreparedTarget target = icp.prepare(down[i]);
+          const registration::PreparedTarget target = icp.prepare(down[i]);
           tp.push_back(t.ms());
           const std::clock_t c0 = std::clock();  // process CPU time, all threads
           r = icp.match(down[i + 1], target);
@@ -132,7 +133,7 @@ int run(int argc, char** argv) {
       }
       // Consistency over triples: ICP i←i+2 vs the composition of the two single steps.
       for (std::size_t i = 0; i + 2 < down.size(); ++i) {
-        const MatchResult r2 = icp.match(down[i + 2], down[i], step[i] * step[i + 1]);
+        const registration::MatchResult r2 = icp.match(down[i + 2], down[i], step[i] * step[i + 1]);
         const Isometry3d D = r2.T_target_source.inverse() * (step[i] * step[i + 1]);
         row.max_cons_t = std::max(row.max_cons_t, D.translation().norm());
         row.max_cons_r = std::max(row.max_cons_r, rotationAngle(D.linear()) * kRadToDeg);

@@ -62,8 +62,9 @@ int main(int argc, char** argv) {
     obm::applyOverrides(root, overrides);
     obm::slam::SlamConfig cfg = obm::slam::SlamConfig::load(root);
     if (!matcher.empty()) {
-      const obm::MatcherKind kind = obm::parseMatcherKind(matcher, "--matcher");
-      if (obm::usesNetwork(kind) && cfg.frontend.matcher.obmnet.model_path.empty())
+      const obm::registration::MatcherKind kind =
+          obm::registration::parseMatcherKind(matcher, "--matcher");
+      if (obm::registration::usesNetwork(kind) && cfg.frontend.matcher.obmnet.model_path.empty())
         throw obm::ConfigError("--matcher " + matcher + ": the configuration '" + config +
                                "' has no matcher.obmnet section with a model_path");
       cfg.frontend.matcher.type = kind;

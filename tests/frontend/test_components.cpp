@@ -240,8 +240,8 @@ optimizer: {init: file, max_iterations: 20}
   EXPECT_EQ(p.loop_closure.descriptor.sectors, 30);
   EXPECT_EQ(p.loop_closure.relocalisation.confirmations, 3u);
   EXPECT_DOUBLE_EQ(p.loop_closure.relocalisation.agreement_rotation, 4.0 * kDegToRad);
-  EXPECT_EQ(p.matcher.type, MatcherKind::Icp);
-  EXPECT_EQ(p.matcher_fallback, MatcherKind::Icp);
+  EXPECT_EQ(p.matcher.type, registration::MatcherKind::Icp);
+  EXPECT_EQ(p.matcher_fallback, registration::MatcherKind::Icp);
   EXPECT_DOUBLE_EQ(p.matcher.icp.initial_max_correspondence_distance, 3.0);
   EXPECT_EQ(p.optimizer.max_iterations, 20);
 
@@ -295,7 +295,7 @@ TEST(FrontendParams, MissingModelFallsBackOnlyWhenConfigured) {
             std::filesystem::path(dir) / "models/none.pt");
   const MatcherChoice c = chooseMatcher(p);
   EXPECT_TRUE(c.fell_back);
-  EXPECT_EQ(c.config.type, MatcherKind::Icp);
+  EXPECT_EQ(c.config.type, registration::MatcherKind::Icp);
   EXPECT_NE(c.message.find("none.pt"), std::string::npos) << c.message;
   EXPECT_NE(c.message.find("fallback"), std::string::npos) << c.message;
 
@@ -306,7 +306,7 @@ TEST(FrontendParams, MissingModelFallsBackOnlyWhenConfigured) {
     ADD_FAILURE() << "a missing model without fallback must be an error";
   } catch (const Error& e) {
     // IoError when the model file is missing; ConfigError when the build has no OBMNet at all.
-    if (obmNetAvailable())
+    if (registration::obmNetAvailable())
       EXPECT_NE(dynamic_cast<const IoError*>(&e), nullptr) << e.what();
     else
       EXPECT_NE(dynamic_cast<const ConfigError*>(&e), nullptr) << e.what();
@@ -314,10 +314,10 @@ TEST(FrontendParams, MissingModelFallsBackOnlyWhenConfigured) {
   }
   // ICP needs no model.
   FrontendParams icp = strict;
-  icp.matcher.type = MatcherKind::Icp;
+  icp.matcher.type = registration::MatcherKind::Icp;
   const MatcherChoice ci = chooseMatcher(icp);
   EXPECT_FALSE(ci.fell_back);
-  EXPECT_EQ(ci.config.type, MatcherKind::Icp);
+  EXPECT_EQ(ci.config.type, registration::MatcherKind::Icp);
 }
 
 }  // namespace

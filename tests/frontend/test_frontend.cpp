@@ -31,7 +31,7 @@ FrontendParams loopParams() {
   p.tracking.max_correction_rotation = 12.0 * kDegToRad;
   p.loop_closure.min_travel = 60.0;
   p.loop_closure.check_every = 1;
-  p.matcher.type = MatcherKind::Icp;
+  p.matcher.type = registration::MatcherKind::Icp;
   p.matcher.icp.source_voxel = 0.5;
   p.matcher.icp.initial_max_correspondence_distance = 4.0;
   p.matcher.icp.max_iterations = 60;
@@ -389,22 +389,24 @@ TEST(FrontendRobust, RecoveryFailingOnlyTheInlierRatioIsTakenWhenTheMatcherAgree
 
 /// Stands in for a global matcher (OBMNet when it registers a pair right): ICP started from the
 /// true relative pose, which the test sets before each sweep, whatever the guess.
-class TruthStartMatcher : public ScanMatcher {
+class TruthStartMatcher : public registration::ScanMatcher {
  public:
-  TruthStartMatcher(const IcpParams& icp, const ConfidenceParams& confidence)
-      : ScanMatcher(icp, confidence), icp_matcher_(icp, confidence) {}
+  TruthStartMatcher(const registration::IcpParams& icp,
+                    const registration::ConfidenceParams& confidence)
+      : registration::ScanMatcher(icp, confidence), icp_matcher_(icp, confidence) {}
   std::string name() const override { return "truth-start"; }
   bool global() const override { return true; }
   Isometry3d T_target_source_true = Isometry3d::Identity();
 
  protected:
-  MatchResult impl_match(const PointCloud& source, const PreparedTarget& target,
-                         const Isometry3d& /*guess*/) const override {
+  registration::MatchResult impl_match(const PointCloud& source,
+                                       const registration::PreparedTarget& target,
+                                       const Isometry3d& /*guess*/) const override {
     return icp_matcher_.match(source, target, T_target_source_true);
   }
 
  private:
-  IcpMatcher icp_matcher_;
+  registration::IcpMatcher icp_matcher_;
 };
 
 TEST(FrontendRobust, AJumpRegisteredOnTwoSweepsIsTaken) {

@@ -19,12 +19,12 @@ std::string smallModel() {
   static const std::string path = [] {
     const std::string dir = test::scratchDir("frontend_obmnet");
     torch::manual_seed(3);
-    ObmNetConfig c;
+    obmnet::ObmNetConfig c;
     c.emb_dims = 16;
     c.n_samples = 8;
     c.n_iters = 1;
     c.n_keypoints = 64;
-    ObmNet net(c);
+    obmnet::ObmNet net(c);
     obmnet::ModelMeta meta;
     meta.num_points = 512;
     meta.normalize_radius = 40.0;
@@ -43,12 +43,12 @@ FrontendParams params(const std::string& model) {
   p.tracking.max_correction_rotation = 12.0 * kDegToRad;
   p.loop_closure.min_travel = 60.0;
   p.loop_closure.check_every = 1;
-  p.matcher.type = MatcherKind::ObmNetIcp;
+  p.matcher.type = registration::MatcherKind::ObmNetIcp;
   p.matcher.obmnet.model_path = model;
   p.matcher.obmnet.threads = 1;
   p.matcher.obmnet.pre_align = true;
   p.matcher.obmnet.keep_init_if_better = true;
-  p.matcher_fallback = MatcherKind::Icp;
+  p.matcher_fallback = registration::MatcherKind::Icp;
   p.matcher.icp.source_voxel = 0.5;
   p.matcher.icp.initial_max_correspondence_distance = 4.0;
   p.matcher.icp.max_iterations = 60;
@@ -62,7 +62,7 @@ TEST(FrontendObmNet, ExistingModelIsChosenAndVerifiesTheLoop) {
   const FrontendParams p = params(smallModel());
   const MatcherChoice choice = chooseMatcher(p);
   EXPECT_FALSE(choice.fell_back);
-  EXPECT_EQ(choice.config.type, MatcherKind::ObmNetIcp);
+  EXPECT_EQ(choice.config.type, registration::MatcherKind::ObmNetIcp);
   Frontend fe(p);
   EXPECT_EQ(fe.matcherName(), "obmnet+icp");
   for (const auto& sweep : loop.sweeps) fe.process(sweep);

@@ -60,9 +60,9 @@ Isometry3d shifted(double x) {
   return T;
 }
 
-MatchResult goodMatch() {
-  MatchResult r;
-  r.status = MatchStatus::Ok;
+registration::MatchResult goodMatch() {
+  registration::MatchResult r;
+  r.status = registration::MatchStatus::Ok;
   r.quality = 0.9;
   r.inlier_ratio = 0.8;
   return r;
@@ -72,20 +72,21 @@ MatchResult goodMatch() {
 TEST(FrontendParts, EdgeInformationHasTheFloorAndBridgeEdgesTheirSigmas) {
   // An over-confident match is limited by the floor: Ω → diag(1/σ_t², 1/σ_r²).
   const Matrix6d huge = 1e12 * Matrix6d::Identity();
-  const Matrix6d F = informationG2oToTheta(edgeInformation(huge, 1.0, 0.01, 0.001));
+  const Matrix6d F = registration::informationG2oToTheta(edgeInformation(huge, 1.0, 0.01, 0.001));
   for (int i = 0; i < 3; ++i) EXPECT_NEAR(F(i, i), 1e4, 1.0) << i;
   for (int i = 3; i < 6; ++i) EXPECT_NEAR(F(i, i), 1e6, 100.0) << i;
   // No information at all: eigenvalues clamped to 1 (σ <= 1 m / 1 rad).
-  EXPECT_TRUE(informationG2oToTheta(edgeInformation(Matrix6d::Zero(), 1.0, 0.01, 0.001))
-                  .isApprox(Matrix6d::Identity(), 1e-12));
+  EXPECT_TRUE(
+      registration::informationG2oToTheta(edgeInformation(Matrix6d::Zero(), 1.0, 0.01, 0.001))
+          .isApprox(Matrix6d::Identity(), 1e-12));
 
   TrackingParams tp;
-  const Matrix6d B = informationG2oToTheta(
+  const Matrix6d B = registration::informationG2oToTheta(
       bridgeInformation(tp.bridge_sigma_translation, tp.bridge_sigma_rotation));
   EXPECT_NEAR(B(0, 0), 1.0 / (tp.bridge_sigma_translation * tp.bridge_sigma_translation), 1e-9);
   EXPECT_NEAR(B(5, 5), 1.0 / (tp.bridge_sigma_rotation * tp.bridge_sigma_rotation), 1e-6);
   // A restart, or a keyframe without a match, gets the bridge edge; a match its own information.
-  MatchResult m = goodMatch();
+  registration::MatchResult m = goodMatch();
   m.information = 1e3 * Matrix6d::Identity();
   EXPECT_EQ(odometryEdgeInformation(tp, nullptr, false),
             bridgeInformation(tp.bridge_sigma_translation, tp.bridge_sigma_rotation));
@@ -103,12 +104,12 @@ TEST(FrontendParts, AcceptanceTestsCheckStatusQualityInliersThenTheCorrection) {
   const AcceptanceBounds b{0.5, 0.6, 1.0, 5.0 * kDegToRad};
   const Isometry3d guess = Isometry3d::Identity();
   using K = RejectionKind;
-  MatchResult r = goodMatch();
+  registration::MatchResult r = goodMatch();
   EXPECT_EQ(checkAcceptance(r, guess, b).kind, K::None);
   EXPECT_EQ(checkAcceptance(r, guess, b).detail, "");
-  r.status = MatchStatus::NotConverged;
+  r.status = registration::MatchStatus::NotConverged;
   EXPECT_FALSE(checkAcceptance(r, guess, b).rejected());  // not converged and degenerate are judged
-  r.status = MatchStatus::TooFewCorrespondences;
+  r.status = registration::MatchStatus::TooFewCorrespondences;
   EXPECT_EQ(checkAcceptance(r, guess, b).kind, K::MatchStatus);
   EXPECT_EQ(checkAcceptance(r, guess, b).detail.rfind("match status ", 0), 0u);
   r = goodMatch();
@@ -141,12 +142,12 @@ TEST(FrontendParts, RecoveryStepsRunInTheDocumentedOrder) {
 TEST(FrontendParts, TheLastKeyframeStepTakesTheMatchersRegistrationAndTimesItByMatcher) {
   // No wide gate: the first step that runs registers against the last keyframe with ICP.
   TrackingParams tp;
-  const IcpMatcher icp;
+  const registration::IcpMatcher icp;
   Recovery recovery(tp, nullptr, icp);
   const Isometry3d I = Isometry3d::Identity();
   const Keyframe kf = keyframe(3, shifted(2.0), 8.0, shifted(2.0));
   const Keyframe now = keyframe(4, I, 8.5, shifted(2.4));  // the sweep, 0.4 m further
-  const PreparedTarget local_map(kf.cloud);
+  const registration::PreparedTarget local_map(kf.cloud);
   const Isometry3d guess = shifted(2.2);
   const RecoveryInput in{now.cloud, guess, local_map, kf, 4, I, 0.8};
   FrameResult fr;
@@ -178,8 +179,8 @@ TEST(FrontendParts, AMatchOnTheGuessIntoUnmappedSpaceIsTrackedWithGuessAgreement
     TrackingParams tp;
     tp.guess_agreement_translation = agreement;
     Tracker tracker(tp);
-    const PreparedTarget map(box, tracker.icp().icpParams().targetOptions());
-    MatchResult m;
+    const registration::PreparedTarget map(box, tracker.icp().icpParams().targetOptions());
+    registration::MatchResult m;
     StageTimes times;
     for (int k = 0; k < 3; ++k)  // the recent frames: the box alone, fully paired
       EXPECT_FALSE(tracker.track(box, map, Isometry3d::Identity(), true, m, times).rejected());
@@ -205,11 +206,12 @@ TEST(FrontendParts, AfterAGapOrWithAFitLikeTrackingTheRecoveryMayCorrectALargeTu
   // beyond the 4 × 5° a recovery may correct, unless the bound grows by the extrapolated turn.
   TrackingParams tp;  // max_correction_rotation 5°, recovery_gate 4 m, ±10°, ±20° hypotheses
   const Tracker tracker(tp);  // its wide gate does not depend on the keys changed below
-  const IcpMatcher icp;
+  const registration::IcpMatcher icp;
   const Isometry3d T_true = shifted(2.4);
   const Keyframe kf = keyframe(3, Isometry3d::Identity(), 8.0, Isometry3d::Identity());
   const Keyframe now = keyframe(4, Isometry3d::Identity(), 8.5, T_true);  // the sweep
-  const PreparedTarget local_map(kf.cloud, tracker.icp().icpParams().targetOptions());  // world
+  const registration::PreparedTarget local_map(kf.cloud,
+                                               tracker.icp().icpParams().targetOptions());  // world
   Isometry3d guess = T_true;
   guess.rotate(Eigen::AngleAxisd(30.0 * kDegToRad, Eigen::Vector3d::UnitZ()));
   Isometry3d last_motion = Isometry3d::Identity();
@@ -242,7 +244,7 @@ TEST(FrontendParts, AnAsynchronousLocalMapIsInstalledAFixedNumberOfFramesLater) 
   LocalMapParams lp;
   lp.async = true;
   lp.radius = 1000.0;
-  LocalMap map(lp, PreparedTarget::Options());
+  LocalMap map(lp, registration::PreparedTarget::Options());
   StageTimes times;
   const Isometry3d I = Isometry3d::Identity();
   std::vector<Keyframe> kfs{keyframe(0, I, 0.0, I)};
@@ -282,7 +284,7 @@ LoopClosureParams everyKeyframeLoops() {
 
 TEST(FrontendParts, TheLoopCloserVerifiesACandidateFarEnoughAlongThePath) {
   const LoopClosureParams lp = everyKeyframeLoops();
-  const IcpMatcher icp;
+  const registration::IcpMatcher icp;
   LoopCloser closer(lp, 0.3, icp);
   backend::Optimizer optimizer;
   FrontendStats stats;
@@ -321,7 +323,7 @@ struct OneSearch {
   std::vector<LoopClosure> loops;
   FrontendStats stats;
 };
-OneSearch searchOnce(const LoopClosureParams& lp, const ScanMatcher& matcher,
+OneSearch searchOnce(const LoopClosureParams& lp, const registration::ScanMatcher& matcher,
                      const std::vector<Keyframe>& kfs) {
   LoopCloser closer(lp, 0.3, matcher);
   backend::Optimizer optimizer;
@@ -341,7 +343,8 @@ TEST(FrontendParts, TheLoopCloserSkipsCandidatesLookingTheOtherWay) {
     Isometry3d turned = Isometry3d::Identity();
     turned.linear() = Eigen::AngleAxisd(150.0 * kDegToRad, Eigen::Vector3d::UnitY()).toRotationMatrix();
     const Isometry3d I = Isometry3d::Identity();
-    return searchOnce(lp, IcpMatcher(), {keyframe(0, I, 0.0, I), keyframe(1, turned, 100.0, turned)})
+    return searchOnce(lp, registration::IcpMatcher(),
+                      {keyframe(0, I, 0.0, I), keyframe(1, turned, 100.0, turned)})
         .stats.loop_candidates;
   };
   EXPECT_EQ(run(0.0), 1u);    // no bound: verified
@@ -352,20 +355,22 @@ TEST(FrontendParts, TheLoopCloserSkipsCandidatesLookingTheOtherWay) {
 /// Stands in for a matcher that registers without the guess and picks the wrong one of two
 /// symmetric poses: it returns the estimate turned by 180° about z, with the scores of a perfect
 /// registration (as a street of identical facades gives one).
-class FlippedPoseMatcher : public ScanMatcher {
+class FlippedPoseMatcher : public registration::ScanMatcher {
  public:
-  FlippedPoseMatcher() : ScanMatcher(IcpParams(), ConfidenceParams()) {}
+  FlippedPoseMatcher()
+      : registration::ScanMatcher(registration::IcpParams(), registration::ConfidenceParams()) {}
   std::string name() const override { return "flipped"; }
   bool global() const override { return true; }
 
  protected:
-  MatchResult impl_match(const PointCloud& /*source*/, const PreparedTarget& /*target*/,
-                         const Isometry3d& T_target_source_init) const override {
-    MatchResult r;
+  registration::MatchResult impl_match(const PointCloud& /*source*/,
+                                       const registration::PreparedTarget& /*target*/,
+                                       const Isometry3d& T_target_source_init) const override {
+    registration::MatchResult r;
     Isometry3d turn = Isometry3d::Identity();
     turn.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     r.T_target_source = T_target_source_init * turn;
-    r.status = MatchStatus::Ok;
+    r.status = registration::MatchStatus::Ok;
     r.converged = true;
     r.quality = 0.9;
     r.inlier_ratio = 0.96;

@@ -61,7 +61,7 @@ FrontendParams corridorParams(double start_search_range) {
   p.preprocess.max_range = 80.0;
   p.preprocess.voxel = 0.5;
   p.loop_closure.enabled = false;
-  p.matcher.type = MatcherKind::Icp;
+  p.matcher.type = registration::MatcherKind::Icp;
   p.tracking.start_search_range = start_search_range;
   p.optimizer.num_threads = 1;
   return p;

@@ -77,9 +77,9 @@ PointCloud transformed(const PointCloud& c, const Isometry3d& T) {
   return o;
 }
 
-ScanMatcherConfig lidarIcp() {
-  ScanMatcherConfig cfg;
-  cfg.type = MatcherKind::Icp;
+registration::ScanMatcherConfig lidarIcp() {
+  registration::ScanMatcherConfig cfg;
+  cfg.type = registration::MatcherKind::Icp;
   cfg.icp.max_correspondence_distance = 1.0;
   cfg.icp.initial_max_correspondence_distance = 2.0;
   cfg.icp.max_iterations = 60;
@@ -276,7 +276,7 @@ TEST(MrptBridge, DepthFrameUnprojectedByMrpt) {
   mrpt::obs::CObservation3DRangeScan closer = obs;
   for (int r = 0; r < 48; ++r)
     for (int col = 0; col < 64; ++col) closer.rangeImage(r, col) = 1900;
-  ScanMatcherConfig cfg;
+  registration::ScanMatcherConfig cfg;
   cfg.icp.max_correspondence_distance = 0.3;
   const auto res = MrptScanMatcher(cfg).align(obs, closer);
   EXPECT_NEAR(res.pose.mean.x(), 0.1, 0.01) << toString(res.match.status);

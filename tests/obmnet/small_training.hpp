@@ -14,7 +14,7 @@ namespace obm::test {
 /// emb_dims 32, k1 = 8, k2 = 4, 32 keypoints, 8 overlap samples, 2 iterations; 96-point pairs
 /// in batches of 4, lr 10⁻³, one thread.
 inline obmnet::TrainConfig smallTrainConfig() {
-  ObmNetConfig mc;
+  obmnet::ObmNetConfig mc;
   mc.emb_dims = 32;
   mc.dim = 4;
   mc.k1 = 8;

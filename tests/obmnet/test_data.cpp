@@ -42,14 +42,14 @@ TriangleMesh boxMesh(const std::string& name, float sx, float sy, float sz) {
 }
 
 /// A small network (16 features, 4 samples, 1 iteration) saved to `path` with 64 points.
-ObmNet saveSmallModel(const std::string& path, std::uint64_t seed, int n_keypoints = 256) {
-  ObmNetConfig c;
+obmnet::ObmNet saveSmallModel(const std::string& path, std::uint64_t seed, int n_keypoints = 256) {
+  obmnet::ObmNetConfig c;
   c.emb_dims = 16;
   c.n_samples = 4;
   c.n_iters = 1;
   c.n_keypoints = n_keypoints;
   torch::manual_seed(seed);
-  ObmNet net(c);
+  obmnet::ObmNet net(c);
   ModelMeta meta;
   meta.num_points = 64;
   meta.description = "unit test";
@@ -276,7 +276,7 @@ TEST(ObjectSet, SplitIsByNameAndStable) {
 
 TEST(ModelFile, SaveLoadRoundTripAndClearErrors) {
   const std::string dir = obm::test::scratchDir("obmnet_model_file");
-  ObmNet net = saveSmallModel(dir + "/m.pt", 3);
+  obmnet::ObmNet net = saveSmallModel(dir + "/m.pt", 3);
   ModelMeta meta2;
   auto loaded = loadModel(dir + "/m.pt", &meta2);
   EXPECT_EQ(meta2.num_points, 64);
@@ -313,8 +313,8 @@ TEST(ModelFile, SaveLoadRoundTripAndClearErrors) {
 
 TEST(Trainer, WarmStartNeedsTheSameLayerShapesOnly) {
   const std::string dir = obm::test::scratchDir("obmnet_warm_start");
-  const ObmNetConfig c = saveSmallModel(dir + "/m.pt", 5, 16)->config();
-  auto trainerWith = [&](const ObmNetConfig& mc) {
+  const obmnet::ObmNetConfig c = saveSmallModel(dir + "/m.pt", 5, 16)->config();
+  auto trainerWith = [&](const obmnet::ObmNetConfig& mc) {
     TrainConfig tc;
     tc.model = mc;
     tc.protocol.num_points = 64;
@@ -324,12 +324,12 @@ TEST(Trainer, WarmStartNeedsTheSameLayerShapesOnly) {
     return std::make_unique<Trainer>(tc, clouds, clouds, dir + "/run");
   };
   // Wider neighbourhoods change no layer shape: the weights carry over.
-  ObmNetConfig wider = c;
+  obmnet::ObmNetConfig wider = c;
   wider.k1 = 12;
   wider.k2 = 8;
   EXPECT_NO_THROW(trainerWith(wider)->initializeFrom(dir + "/m.pt"));
   // Another feature width does: a clear error naming the file.
-  ObmNetConfig other = c;
+  obmnet::ObmNetConfig other = c;
   other.emb_dims = 32;
   try {
     trainerWith(other)->initializeFrom(dir + "/m.pt");
@@ -342,15 +342,15 @@ TEST(Trainer, WarmStartNeedsTheSameLayerShapesOnly) {
 
 TEST(Registrar, AlignsAndReportsDiagnostics) {
   const std::string dir = obm::test::scratchDir("obmnet_registrar");
-  ObmNetConfig c;
+  obmnet::ObmNetConfig c;
   c.emb_dims = 16;
   c.n_samples = 8;
   c.n_iters = 2;
-  ObmNet net(c);
+  obmnet::ObmNet net(c);
   ModelMeta meta;
   meta.num_points = 96;
   saveModel(dir + "/m.pt", net, meta);
-  ObmNetRegistrar reg({dir + "/m.pt", 0, 1, 0});
+  obmnet::ObmNetRegistrar reg({dir + "/m.pt", 0, 1, 0});
   EXPECT_EQ(reg.numPoints(), 96);
   const auto src = sphereCloud(300, 11);
   PointCloud tgt = src;

@@ -14,8 +14,8 @@ using namespace obm::obmnet;
 
 namespace {
 
-ObmNetConfig smallConfig() {
-  ObmNetConfig c;
+obmnet::ObmNetConfig smallConfig() {
+  obmnet::ObmNetConfig c;
   c.emb_dims = 32;
   c.dim = 4;
   c.k1 = 5;
@@ -42,7 +42,7 @@ torch::Tensor randomRotation(int64_t B) {
 
 TEST(ObmNet, OutputShapesAndAlphaPositive) {
   torch::manual_seed(0);
-  ObmNet net(smallConfig());
+  obmnet::ObmNet net(smallConfig());
   const auto src = torch::randn({2, 3, 40});
   const auto tgt = torch::randn({2, 3, 36});
   net->train();
@@ -64,7 +64,7 @@ TEST(ObmNet, OutputShapesAndAlphaPositive) {
 
 TEST(ObmNet, GradientsReachEveryParameter) {
   torch::manual_seed(1);
-  ObmNet net(smallConfig());
+  obmnet::ObmNet net(smallConfig());
   net->train();
   const auto src = torch::randn({2, 3, 48});
   const auto tgt = torch::randn({2, 3, 48});
@@ -82,7 +82,7 @@ TEST(ObmNet, GradientsReachEveryParameter) {
 
 TEST(ObmNet, EvalIsDeterministicAndSeedMatters) {
   torch::manual_seed(2);
-  ObmNet a(smallConfig());
+  obmnet::ObmNet a(smallConfig());
   a->eval();
   torch::NoGradGuard ng;
   const auto src = torch::randn({1, 3, 50});
@@ -96,7 +96,7 @@ TEST(ObmNet, EvalIsDeterministicAndSeedMatters) {
   auto cfg = smallConfig();
   cfg.seed = 99;
   torch::manual_seed(2);
-  ObmNet b(cfg);
+  obmnet::ObmNet b(cfg);
   b->eval();
   const auto o3 = b->forward(src, tgt);
   EXPECT_FALSE(torch::equal(o1.R, o3.R));
@@ -105,7 +105,7 @@ TEST(ObmNet, EvalIsDeterministicAndSeedMatters) {
 TEST(ObmNet, TrainingIsDeterministicUnderAFixedSeed) {
   auto run = [] {
     torch::manual_seed(7);
-    ObmNet net(smallConfig());
+    obmnet::ObmNet net(smallConfig());
     net->train();
     torch::manual_seed(8);
     const auto src = torch::randn({2, 3, 32});
@@ -121,7 +121,7 @@ TEST(ObmNet, AblationSwitchesBuildAndRun) {
     c.use_overlap_sampling = mask & 1;
     c.use_bias_prediction = (mask & 2) && c.use_overlap_sampling;
     c.use_nmm = mask & 4;
-    ObmNet net(c);
+    obmnet::ObmNet net(c);
     net->train();
     const auto o = net->forward(torch::randn({2, 3, 24}), torch::randn({2, 3, 24}), true);
     EXPECT_TRUE(std::isfinite(o.loss.item<double>())) << "mask " << mask;
@@ -132,11 +132,11 @@ TEST(ObmNet, AblationSwitchesBuildAndRun) {
   auto bad = smallConfig();
   bad.use_overlap_sampling = false;
   bad.use_bias_prediction = true;
-  EXPECT_THROW(ObmNet{bad}, ConfigError);
+  EXPECT_THROW(obmnet::ObmNet{bad}, ConfigError);
 }
 
 TEST(ObmNet, RejectsMalformedInput) {
-  ObmNet net(smallConfig());
+  obmnet::ObmNet net(smallConfig());
   EXPECT_THROW(net->forward(torch::randn({1, 2, 30}), torch::randn({1, 3, 30})), ContractError);
   EXPECT_THROW(net->forward(torch::randn({1, 3, 3}), torch::randn({1, 3, 30})), ContractError);
 }
@@ -279,7 +279,7 @@ TEST(WeightedSvd, VanishedWeightsFallBackToUniform) {
 
 TEST(ObmNet, SoftInferenceSamplingIsRepeatableRecordedAndNotTheOneHotDraw) {
   torch::manual_seed(5);
-  ObmNet net(smallConfig());
+  obmnet::ObmNet net(smallConfig());
   const auto src = torch::randn({1, 3, 48});
   const auto tgt = torch::randn({1, 3, 48});
   // A few train-mode passes so that the batch-norm running statistics are not the defaults.
@@ -299,9 +299,9 @@ TEST(ObmNet, SoftInferenceSamplingIsRepeatableRecordedAndNotTheOneHotDraw) {
   net->setSoftInferenceSampling(false);
   EXPECT_TRUE(torch::equal(net->forward(src, tgt, false).alpha, hard.alpha));
   // Recorded with the weights: the key round-trips through the model file's YAML.
-  ObmNetConfig c = smallConfig();
+  obmnet::ObmNetConfig c = smallConfig();
   c.soft_inference_sampling = true;
-  const auto back = ObmNetConfig::load(ConfigNode::fromString(c.toYaml()));
+  const auto back = obmnet::ObmNetConfig::load(ConfigNode::fromString(c.toYaml()));
   EXPECT_TRUE(back.soft_inference_sampling);
   EXPECT_EQ(smallConfig().toYaml().find("soft_inference_sampling"), std::string::npos)
       << "models trained without the key keep their embedded text";

@@ -290,7 +290,7 @@ TEST(Registrar, YawHypothesesAreSearchedInOneBatchAndTheBestFitIsKept) {
   for (const bool shared : {false, true}) {
   SCOPED_TRACE(shared ? "shared centroid" : "separate centroids");
   const std::string path = test::scratchDir("registrar_yaw") + "/planar.pt";
-  ObmNetConfig c;
+  obmnet::ObmNetConfig c;
   c.shared_centroid = shared;
   c.emb_dims = 16;
   c.n_samples = 4;
@@ -298,7 +298,7 @@ TEST(Registrar, YawHypothesesAreSearchedInOneBatchAndTheBestFitIsKept) {
   c.planar = true;
   c.voxel_keypoints = true;
   torch::manual_seed(1);
-  ObmNet net(c);
+  obmnet::ObmNet net(c);
   ModelMeta meta;
   meta.num_points = 256;
   meta.description = "unit test";
@@ -317,12 +317,12 @@ TEST(Registrar, YawHypothesesAreSearchedInOneBatchAndTheBestFitIsKept) {
   T_true.linear() = Eigen::AngleAxisd(kPi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   T_true.translation() = Eigen::Vector3d(3.0, -2.0, 0.0);
   const PointCloud source = scene.transformed(T_true.inverse(), "source");
-  ObmNetRegistrar::Options o;
+  obmnet::ObmNetRegistrar::Options o;
   o.model_path = path;
   o.threads = 1;
-  const auto r4 = ObmNetRegistrar(o).align(source, scene);
+  const auto r4 = obmnet::ObmNetRegistrar(o).align(source, scene);
   o.yaw_hypotheses = 1;
-  const auto r1 = ObmNetRegistrar(o).align(source, scene);
+  const auto r1 = obmnet::ObmNetRegistrar(o).align(source, scene);
   const double h = r4.hypothesis_yaw_deg;
   EXPECT_TRUE(h == 0.0 || h == 90.0 || h == 180.0 || h == 270.0) << h;
   EXPECT_DOUBLE_EQ(r1.hypothesis_yaw_deg, 0.0);

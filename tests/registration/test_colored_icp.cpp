@@ -45,10 +45,10 @@ Isometry3d wallPose() {
   return T;
 }
 
-IcpParams wallParams() {
-  IcpParams p;
+registration::IcpParams wallParams() {
+  registration::IcpParams p;
   p.max_correspondence_distance = 0.05;
-  p.kernel = RobustKernel::Huber;
+  p.kernel = registration::RobustKernel::Huber;
   p.kernel_scale = 0.01;
   p.max_iterations = 60;
   p.min_planarity = 0.0;
@@ -65,10 +65,10 @@ TEST(ColoredIcp, GradientsOfALinearRampAreItsSlopeInThePlane) {
       cloud.points.push_back(Vector3f(float(x), float(y), 1.f));
       cloud.colors.push_back(Color3u8(c, c, c));
     }
-  PreparedTarget::Options o;
+  registration::PreparedTarget::Options o;
   o.color_gradients = true;
   o.min_planarity = 0.0;
-  const PreparedTarget t(cloud, o);
+  const registration::PreparedTarget t(cloud, o);
   ASSERT_TRUE(t.hasColorGradients());
   std::size_t checked = 0;
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
@@ -88,12 +88,12 @@ TEST(ColoredIcp, GradientsOfALinearRampAreItsSlopeInThePlane) {
   EXPECT_NEAR(mean.x(), 2.0, 0.02);  // the quantisation averages out
   EXPECT_NEAR(mean.y(), 0.0, 0.02);
 
-  PreparedTarget::Options off = o;
+  registration::PreparedTarget::Options off = o;
   off.color_gradients = false;
-  EXPECT_FALSE(PreparedTarget(cloud, off).hasColorGradients());
+  EXPECT_FALSE(registration::PreparedTarget(cloud, off).hasColorGradients());
   PointCloud grey = cloud;
   grey.colors.clear();
-  EXPECT_FALSE(PreparedTarget(grey, o).hasColorGradients());
+  EXPECT_FALSE(registration::PreparedTarget(grey, o).hasColorGradients());
 }
 
 TEST(ColoredIcp, TheTexturePinsTheInPlaneShiftThatGeometryLeavesFree) {
@@ -107,18 +107,20 @@ TEST(ColoredIcp, TheTexturePinsTheInPlaneShiftThatGeometryLeavesFree) {
   const PointCloud source =
       texturedWall(0.012, 2, T_target_source_true.inverse() * wallPose());
 
-  IcpParams geometric = wallParams();
-  IcpParams colored = geometric;
+  registration::IcpParams geometric = wallParams();
+  registration::IcpParams colored = geometric;
   colored.color_weight = 0.033;  // Park et al.'s σ = 0.968
   colored.color_kernel_scale = 0.2;
 
-  const PreparedTarget target_geo(target, geometric.targetOptions());
-  const PreparedTarget target_col(target, colored.targetOptions());
+  const registration::PreparedTarget target_geo(target, geometric.targetOptions());
+  const registration::PreparedTarget target_col(target, colored.targetOptions());
   ASSERT_FALSE(target_geo.hasColorGradients());
   ASSERT_TRUE(target_col.hasColorGradients());
 
-  const MatchResult geo = IcpMatcher(geometric).match(source, target_geo, Isometry3d::Identity());
-  const MatchResult col = IcpMatcher(colored).match(source, target_col, Isometry3d::Identity());
+  const registration::MatchResult geo =
+      registration::IcpMatcher(geometric).match(source, target_geo, Isometry3d::Identity());
+  const registration::MatchResult col =
+      registration::IcpMatcher(colored).match(source, target_col, Isometry3d::Identity());
   const auto [geo_t, geo_r] = poseError(geo.T_target_source, T_target_source_true);
   const auto [col_t, col_r] = poseError(col.T_target_source, T_target_source_true);
   EXPECT_GT(geo_t, 0.03) << "geometric ICP should not see the in-plane shift";
@@ -128,20 +130,21 @@ TEST(ColoredIcp, TheTexturePinsTheInPlaneShiftThatGeometryLeavesFree) {
   // the coloured one.
   std::printf("conditioning: geometric %.2e (%s), coloured %.2e (%s)\n", geo.conditioning,
               toString(geo.status), col.conditioning, toString(col.status));
-  EXPECT_EQ(geo.status, MatchStatus::Degenerate);
-  EXPECT_EQ(col.status, MatchStatus::Ok);
+  EXPECT_EQ(geo.status, registration::MatchStatus::Degenerate);
+  EXPECT_EQ(col.status, registration::MatchStatus::Ok);
   EXPECT_GT(col.conditioning, 100.0 * geo.conditioning);
   EXPECT_GT(col.quality, geo.quality);
 
   // Colourless source: the photometric term is off and the result is the geometric one.
   PointCloud grey = source;
   grey.colors.clear();
-  const MatchResult off = IcpMatcher(colored).match(grey, target_col, Isometry3d::Identity());
+  const registration::MatchResult off =
+      registration::IcpMatcher(colored).match(grey, target_col, Isometry3d::Identity());
   EXPECT_TRUE(off.T_target_source.isApprox(geo.T_target_source, 1e-9));
 }
 
 TEST(ColoredIcp, ParametersAreValidated) {
-  IcpParams p;
+  registration::IcpParams p;
   p.color_weight = -0.1;
   EXPECT_THROW(p.validate(), ContractError);
   p.color_weight = 0.1;
@@ -151,8 +154,8 @@ TEST(ColoredIcp, ParametersAreValidated) {
   const std::vector<float> intensity(3, 0.5f);
   PointCloud t;
   t.points = pts;
-  EXPECT_THROW(runIcp(pts, PreparedTarget(t), Isometry3d::Identity(), IcpParams(), nullptr,
-                      &intensity),
+  EXPECT_THROW(registration::runIcp(pts, registration::PreparedTarget(t), Isometry3d::Identity(),
+                                    registration::IcpParams(), nullptr, &intensity),
                ContractError);
 }
 
@@ -175,18 +178,18 @@ TEST(DepthNoiseWeights, FarNoisyDepthPullsLess) {
   // The source's depth carries the structured-light noise σ(z) = a + b·(z − z₀)² along each ray
   // (2 mm at 1 m, 3 cm at 4.5 m); the target (a local map) is clean. Weighting by 1/σ² lets the
   // near, precise points decide: over several noise draws the pose error shrinks.
-  IcpParams plain;
+  registration::IcpParams plain;
   plain.max_correspondence_distance = 0.15;
-  plain.kernel = RobustKernel::Huber;
+  plain.kernel = registration::RobustKernel::Huber;
   plain.kernel_scale = 0.02;
   plain.max_iterations = 60;
-  IcpParams weighted = plain;
+  registration::IcpParams weighted = plain;
   weighted.depth_noise_weights = true;
   const Isometry3d T_true =
       makeIsometry(Eigen::AngleAxisd(1.5 * kDegToRad, Eigen::Vector3d(0.3, 1.0, 0.2).normalized())
                        .toRotationMatrix(),
                    Eigen::Vector3d(0.03, -0.02, 0.04));
-  const PreparedTarget target(cameraRoom(1), plain.targetOptions());
+  const registration::PreparedTarget target(cameraRoom(1), plain.targetOptions());
   double err_plain = 0.0, err_weighted = 0.0;
   const int draws = 6;
   for (int k = 0; k < draws; ++k) {
@@ -198,10 +201,16 @@ TEST(DepthNoiseWeights, FarNoisyDepthPullsLess) {
       const float sigma = 0.0012f + 0.0019f * dz * dz;
       p *= 1.f + sigma * N(rng) / p.z();  // along the ray: the depth z moves by sigma·N
     }
-    err_plain += poseError(IcpMatcher(plain).match(src, target, Isometry3d::Identity())
-                               .T_target_source, T_true).first;
-    err_weighted += poseError(IcpMatcher(weighted).match(src, target, Isometry3d::Identity())
-                                  .T_target_source, T_true).first;
+    err_plain += poseError(registration::IcpMatcher(plain)
+                               .match(src, target, Isometry3d::Identity())
+                               .T_target_source,
+                           T_true)
+                     .first;
+    err_weighted += poseError(registration::IcpMatcher(weighted)
+                                  .match(src, target, Isometry3d::Identity())
+                                  .T_target_source,
+                              T_true)
+                        .first;
   }
   err_plain /= draws;
   err_weighted /= draws;

@@ -40,8 +40,8 @@ confidence:
   conditioning_ref: 0.03
   degeneracy_threshold: 0.002
 )");
-  const ScanMatcherConfig c = ScanMatcherConfig::load(node);
-  EXPECT_EQ(c.type, MatcherKind::Icp);
+  const registration::ScanMatcherConfig c = registration::ScanMatcherConfig::load(node);
+  EXPECT_EQ(c.type, registration::MatcherKind::Icp);
   EXPECT_EQ(c.icp.source_voxel, 0.3);
   EXPECT_EQ(c.icp.target_voxel, 0.2);
   EXPECT_EQ(c.icp.normal_neighbors, 12);
@@ -49,11 +49,11 @@ confidence:
   EXPECT_EQ(c.icp.max_correspondence_distance, 0.8);
   EXPECT_EQ(c.icp.initial_max_correspondence_distance, 3.0);
   EXPECT_EQ(c.icp.anneal_factor, 0.4);
-  EXPECT_EQ(c.icp.metric, IcpMetric::PointToPoint);
+  EXPECT_EQ(c.icp.metric, registration::IcpMetric::PointToPoint);
   EXPECT_FALSE(c.icp.point_to_point_fallback);
-  EXPECT_EQ(c.icp.kernel, RobustKernel::Tukey);
+  EXPECT_EQ(c.icp.kernel, registration::RobustKernel::Tukey);
   EXPECT_EQ(c.icp.kernel_scale, 0.25);
-  EXPECT_EQ(c.icp.solver, IcpSolver::GaussNewton);
+  EXPECT_EQ(c.icp.solver, registration::IcpSolver::GaussNewton);
   EXPECT_EQ(c.icp.max_iterations, 17);
   EXPECT_EQ(c.icp.translation_tolerance, 1e-5);
   EXPECT_DOUBLE_EQ(c.icp.rotation_tolerance, 0.01 * kDegToRad);
@@ -66,25 +66,27 @@ confidence:
   EXPECT_EQ(c.confidence.overlap_ref, 0.4);
   EXPECT_EQ(c.confidence.conditioning_ref, 0.03);
   EXPECT_EQ(c.confidence.degeneracy_threshold, 0.002);
-  const auto m = makeScanMatcher(c);
+  const auto m = registration::makeScanMatcher(c);
   EXPECT_EQ(m->name(), "icp");
-  EXPECT_EQ(m->icpParams().kernel, RobustKernel::Tukey);
-  const PreparedTarget::Options o = c.icp.targetOptions();
+  EXPECT_EQ(m->icpParams().kernel, registration::RobustKernel::Tukey);
+  const registration::PreparedTarget::Options o = c.icp.targetOptions();
   EXPECT_EQ(o.voxel, 0.2);
   EXPECT_EQ(o.normal_neighbors, 12);
 }
 
 TEST(RegistrationConfig, DefaultsWhenKeysAreAbsent) {
-  const ScanMatcherConfig c = ScanMatcherConfig::load(ConfigNode::fromString("{}"));
-  EXPECT_EQ(c.type, MatcherKind::Icp);
-  EXPECT_EQ(c.icp.max_correspondence_distance, IcpParams().max_correspondence_distance);
-  EXPECT_EQ(c.icp.kernel, IcpParams().kernel);
-  EXPECT_EQ(c.confidence.min_sigma, ConfidenceParams().min_sigma);
+  const registration::ScanMatcherConfig c =
+      registration::ScanMatcherConfig::load(ConfigNode::fromString("{}"));
+  EXPECT_EQ(c.type, registration::MatcherKind::Icp);
+  EXPECT_EQ(c.icp.max_correspondence_distance,
+            registration::IcpParams().max_correspondence_distance);
+  EXPECT_EQ(c.icp.kernel, registration::IcpParams().kernel);
+  EXPECT_EQ(c.confidence.min_sigma, registration::ConfidenceParams().min_sigma);
 }
 
 void expectConfigError(const std::string& yaml, const std::string& fragment) {
   try {
-    ScanMatcherConfig::load(ConfigNode::fromString(yaml, "test.yaml"));
+    registration::ScanMatcherConfig::load(ConfigNode::fromString(yaml, "test.yaml"));
     FAIL() << "no ConfigError for: " << yaml;
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
@@ -113,14 +115,14 @@ TEST(RegistrationConfig, ErrorsNameFileAndKey) {
 }
 
 TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
-  const ScanMatcherConfig c = ScanMatcherConfig::load(
+  const registration::ScanMatcherConfig c = registration::ScanMatcherConfig::load(
       ConfigNode::loadFile(std::string(OBM_SOURCE_DIR) + "/config/registration/obmnet_icp.yaml"));
-  EXPECT_EQ(c.type, MatcherKind::ObmNetIcp);
+  EXPECT_EQ(c.type, registration::MatcherKind::ObmNetIcp);
   EXPECT_TRUE(c.obmnet.pre_align);
   // Resolved against the YAML file's folder.
   EXPECT_EQ(c.obmnet.model_path.rfind(std::string(OBM_SOURCE_DIR) + "/config/registration/", 0), 0u)
       << c.obmnet.model_path;
-  const auto s = ScanMatcherConfig::load(ConfigNode::fromString(
+  const auto s = registration::ScanMatcherConfig::load(ConfigNode::fromString(
       "type: obmnet\nobmnet: {model_path: /abs/m.pt, num_points: 512, threads: 1, seed: 7, "
       "pre_align: false, keep_init_if_better: false, overlap_stage_keep: 0.3, "
       "overlap_stage_gate_factor: 3}"));
@@ -137,10 +139,10 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
 
 TEST(RegistrationConfig, ShippedIcpConfigHoldsTheDefaults) {
   // config/registration/icp.yaml documents every key with its default value.
-  const ScanMatcherConfig c = ScanMatcherConfig::load(
+  const registration::ScanMatcherConfig c = registration::ScanMatcherConfig::load(
       ConfigNode::loadFile(std::string(OBM_SOURCE_DIR) + "/config/registration/icp.yaml"));
-  const IcpParams d;
-  EXPECT_EQ(c.type, MatcherKind::Icp);
+  const registration::IcpParams d;
+  EXPECT_EQ(c.type, registration::MatcherKind::Icp);
   EXPECT_EQ(c.icp.source_voxel, d.source_voxel);
   EXPECT_EQ(c.icp.target_voxel, d.target_voxel);
   EXPECT_EQ(c.icp.normal_neighbors, d.normal_neighbors);
@@ -158,7 +160,7 @@ TEST(RegistrationConfig, ShippedIcpConfigHoldsTheDefaults) {
   EXPECT_NEAR(c.icp.rotation_tolerance, d.rotation_tolerance, 1e-15);
   EXPECT_EQ(c.icp.min_correspondences, d.min_correspondences);
   EXPECT_EQ(c.icp.threads, d.threads);
-  const ConfidenceParams cd;
+  const registration::ConfidenceParams cd;
   EXPECT_EQ(c.confidence.inlier_threshold, cd.inlier_threshold);
   EXPECT_EQ(c.confidence.min_sigma, cd.min_sigma);
   EXPECT_EQ(c.confidence.information_scale, cd.information_scale);
@@ -171,11 +173,11 @@ TEST(RegistrationConfig, ShippedIcpConfigHoldsTheDefaults) {
 #ifdef OBM_TEST_WITHOUT_OBMNET
 TEST(RegistrationConfig, ObmNetTypesNeedLibTorch) {
   // This build has no LibTorch: the OBMNet matchers say so instead of failing later.
-  ScanMatcherConfig c;
-  c.type = MatcherKind::ObmNetIcp;
+  registration::ScanMatcherConfig c;
+  c.type = registration::MatcherKind::ObmNetIcp;
   c.obmnet.model_path = "any.pt";
-  EXPECT_THROW(makeScanMatcher(c), ConfigError);
-  EXPECT_THROW(ObmNetMatcher(c.obmnet), ConfigError);
+  EXPECT_THROW(registration::makeScanMatcher(c), ConfigError);
+  EXPECT_THROW(registration::ObmNetMatcher(c.obmnet), ConfigError);
 }
 #endif
 

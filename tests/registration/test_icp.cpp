@@ -26,8 +26,8 @@ const Isometry3d kTruth =
                      .toRotationMatrix(),
                  Eigen::Vector3d(0.8, -0.4, 0.1));
 
-IcpParams exactParams() {
-  IcpParams p;
+registration::IcpParams exactParams() {
+  registration::IcpParams p;
   p.max_correspondence_distance = 1.0;
   p.kernel_scale = 0.5;
   p.translation_tolerance = 1e-7;
@@ -38,32 +38,36 @@ IcpParams exactParams() {
 
 // ---------------------------------------------------------------------------------------------
 TEST(RobustKernel, WeightIsDerivativeOverResidual) {
-  for (auto k : {RobustKernel::None, RobustKernel::Huber, RobustKernel::Cauchy,
-                 RobustKernel::GemanMcClure, RobustKernel::Tukey}) {
+  for (auto k : {registration::RobustKernel::None, registration::RobustKernel::Huber,
+                 registration::RobustKernel::Cauchy, registration::RobustKernel::GemanMcClure,
+                 registration::RobustKernel::Tukey}) {
     const double c = 0.3;
-    EXPECT_DOUBLE_EQ(robustWeight(k, 0.0, c), 1.0) << toString(k);
-    EXPECT_DOUBLE_EQ(robustCost(k, 0.0, c), 0.0) << toString(k);
+    EXPECT_DOUBLE_EQ(registration::robustWeight(k, 0.0, c), 1.0) << toString(k);
+    EXPECT_DOUBLE_EQ(registration::robustCost(k, 0.0, c), 0.0) << toString(k);
     for (double r : {-0.7, -0.25, 0.01, 0.1, 0.29, 0.31, 0.9, 2.5}) {
       const double h = 1e-6;
-      const double deriv = (robustCost(k, r + h, c) - robustCost(k, r - h, c)) / (2 * h);
-      EXPECT_NEAR(robustWeight(k, r, c), deriv / r, 1e-5) << toString(k) << " r=" << r;
-      EXPECT_GE(robustWeight(k, r, c), 0.0);
-      EXPECT_LE(robustWeight(k, r, c), 1.0);
+      const double deriv =
+          (registration::robustCost(k, r + h, c) - registration::robustCost(k, r - h, c)) / (2 * h);
+      EXPECT_NEAR(registration::robustWeight(k, r, c), deriv / r, 1e-5)
+          << toString(k) << " r=" << r;
+      EXPECT_GE(registration::robustWeight(k, r, c), 0.0);
+      EXPECT_LE(registration::robustWeight(k, r, c), 1.0);
     }
-    EXPECT_EQ(parseRobustKernel(toString(k)), k);
+    EXPECT_EQ(registration::parseRobustKernel(toString(k)), k);
   }
-  EXPECT_EQ(robustWeight(RobustKernel::Tukey, 0.31, 0.3), 0.0);  // hard rejection beyond c
-  EXPECT_EQ(parseRobustKernel("gm"), RobustKernel::GemanMcClure);
-  EXPECT_THROW(parseRobustKernel("welsch"), ConfigError);
+  EXPECT_EQ(registration::robustWeight(registration::RobustKernel::Tukey, 0.31, 0.3),
+            0.0);  // hard rejection beyond c
+  EXPECT_EQ(registration::parseRobustKernel("gm"), registration::RobustKernel::GemanMcClure);
+  EXPECT_THROW(registration::parseRobustKernel("welsch"), ConfigError);
 }
 
 // ---------------------------------------------------------------------------------------------
 TEST(PreparedTarget, NormalsNearestAndKnn) {
   // A plane z = -1 seen from the origin: normals ±z, oriented towards the origin (+z).
   const PointCloud plane = test::planeScene(4.0, 3);
-  PreparedTarget::Options all;
+  registration::PreparedTarget::Options all;
   all.min_planarity = 0.0;  // also trust elongated neighbourhoods: every normal is checked
-  PreparedTarget pt(plane, all);
+  registration::PreparedTarget pt(plane, all);
   ASSERT_EQ(pt.size(), plane.size());
   for (std::size_t i = 0; i < pt.size(); ++i) {
     ASSERT_EQ(pt.normalValid()[i], 1);
@@ -96,38 +100,39 @@ TEST(PreparedTarget, NormalsNearestAndKnn) {
   // Points on a line have no trustworthy normal.
   PointCloud line;
   for (int i = 0; i < 50; ++i) line.push_back(Vector3f(0.1f * i, 2.f, 0.f));
-  PreparedTarget pl(line);
+  registration::PreparedTarget pl(line);
   for (auto v : pl.normalValid()) EXPECT_EQ(v, 0);
   // Non-finite points are dropped; voxelisation applies.
   PointCloud dirty = plane;
   dirty.points[0].x() = std::numeric_limits<float>::quiet_NaN();
-  PreparedTarget::Options o;
-  EXPECT_EQ(PreparedTarget(dirty, o).size(), plane.size() - 1);
+  registration::PreparedTarget::Options o;
+  EXPECT_EQ(registration::PreparedTarget(dirty, o).size(), plane.size() - 1);
   o.voxel = 2.0;
-  EXPECT_LT(PreparedTarget(dirty, o).size(), 150u);
+  EXPECT_LT(registration::PreparedTarget(dirty, o).size(), 150u);
   o.normal_neighbors = 2;
-  EXPECT_THROW(PreparedTarget(plane, o), ContractError);
+  EXPECT_THROW(registration::PreparedTarget(plane, o), ContractError);
 }
 
 // ---------------------------------------------------------------------------------------------
 // Exact convergence on a noise-free scene from a perturbed guess, for every kernel × solver ×
 // metric.
-using ConvergenceCase = std::tuple<RobustKernel, IcpSolver, IcpMetric>;
+using ConvergenceCase =
+    std::tuple<registration::RobustKernel, registration::IcpSolver, registration::IcpMetric>;
 class IcpConvergence : public ::testing::TestWithParam<ConvergenceCase> {};
 
 TEST_P(IcpConvergence, NoiseFreeRoomFromPerturbedGuess) {
   const auto [kernel, solver, metric] = GetParam();
-  IcpParams p = exactParams();
+  registration::IcpParams p = exactParams();
   p.kernel = kernel;
   p.solver = solver;
   p.metric = metric;
   const PointCloud target = roomScene(20.0, 1);
   const PointCloud source = makeSource(target, kTruth, 0.6, 0.0, 2);
-  IcpMatcher icp(p);
+  registration::IcpMatcher icp(p);
   for (const auto& [trans, deg] : {std::pair{0.3, 5.0}, std::pair{-0.4, -8.0}}) {
     const Isometry3d guess = kTruth * perturbation(trans, deg);
-    const MatchResult r = icp.match(source, target, guess);
-    EXPECT_EQ(r.status, MatchStatus::Ok) << r.message;
+    const registration::MatchResult r = icp.match(source, target, guess);
+    EXPECT_EQ(r.status, registration::MatchStatus::Ok) << r.message;
     EXPECT_TRUE(r.converged);
     const auto [et, er] = poseError(r.T_target_source, kTruth);
     EXPECT_LT(et, 1e-4) << "translation error [m]";
@@ -141,11 +146,15 @@ TEST_P(IcpConvergence, NoiseFreeRoomFromPerturbedGuess) {
 
 INSTANTIATE_TEST_SUITE_P(
     KernelsSolversMetrics, IcpConvergence,
-    ::testing::Combine(::testing::Values(RobustKernel::None, RobustKernel::Huber,
-                                         RobustKernel::Cauchy, RobustKernel::GemanMcClure,
-                                         RobustKernel::Tukey),
-                       ::testing::Values(IcpSolver::GaussNewton, IcpSolver::LevenbergMarquardt),
-                       ::testing::Values(IcpMetric::PointToPlane, IcpMetric::PointToPoint)),
+    ::testing::Combine(::testing::Values(registration::RobustKernel::None,
+                                         registration::RobustKernel::Huber,
+                                         registration::RobustKernel::Cauchy,
+                                         registration::RobustKernel::GemanMcClure,
+                                         registration::RobustKernel::Tukey),
+                       ::testing::Values(registration::IcpSolver::GaussNewton,
+                                         registration::IcpSolver::LevenbergMarquardt),
+                       ::testing::Values(registration::IcpMetric::PointToPlane,
+                                         registration::IcpMetric::PointToPoint)),
     [](const auto& info) {
       return toString(std::get<0>(info.param)) + "_" + toString(std::get<1>(info.param)) + "_" +
              toString(std::get<2>(info.param));
@@ -156,10 +165,10 @@ TEST(Icp, AnnealedGateRecoversLargerOffset) {
   const PointCloud target = roomScene(20.0, 1);
   const PointCloud source = makeSource(target, kTruth, 0.6, 0.0, 2);
   const Isometry3d guess = kTruth * perturbation(1.2, 10.0);
-  IcpParams p = exactParams();
+  registration::IcpParams p = exactParams();
   p.max_correspondence_distance = 0.2;
   p.initial_max_correspondence_distance = 2.0;
-  const MatchResult r = IcpMatcher(p).match(source, target, guess);
+  const registration::MatchResult r = registration::IcpMatcher(p).match(source, target, guess);
   EXPECT_TRUE(r.converged) << r.message;
   const auto [et, er] = poseError(r.T_target_source, kTruth);
   EXPECT_LT(et, 1e-4);
@@ -177,25 +186,25 @@ TEST(Icp, RobustKernelsRejectInjectedOutliers) {
   for (std::size_t i = 0; i < source.size(); i += 4)
     source.points[i] += (U(rng) * ghost).cast<float>();
   const Isometry3d guess = kTruth * perturbation(0.1, 2.0);
-  auto run = [&](RobustKernel k) {
-    IcpParams p = exactParams();
+  auto run = [&](registration::RobustKernel k) {
+    registration::IcpParams p = exactParams();
     p.kernel = k;
     p.kernel_scale = 0.05;
     p.max_correspondence_distance = 0.5;
-    return IcpMatcher(p).match(source, target, guess);
+    return registration::IcpMatcher(p).match(source, target, guess);
   };
-  const auto plain = run(RobustKernel::None);
+  const auto plain = run(registration::RobustKernel::None);
   const double plain_err = poseError(plain.T_target_source, kTruth).first;
   EXPECT_GT(plain_err, 0.02) << "the outliers must bias least squares for this test to mean much";
   // Every kernel reduces the bias; the redescending ones with a fast-decaying influence
   // (Geman-McClure, Tukey) remove it.
-  for (auto k : {RobustKernel::Huber, RobustKernel::Cauchy, RobustKernel::GemanMcClure,
-                 RobustKernel::Tukey}) {
-    const MatchResult r = run(k);
+  for (auto k : {registration::RobustKernel::Huber, registration::RobustKernel::Cauchy,
+                 registration::RobustKernel::GemanMcClure, registration::RobustKernel::Tukey}) {
+    const registration::MatchResult r = run(k);
     const auto [et, er] = poseError(r.T_target_source, kTruth);
     RecordProperty(toString(k) + "_error_mm", std::to_string(1e3 * et));
     EXPECT_LT(et, 0.5 * plain_err) << toString(k) << " vs least squares " << plain_err;
-    if (k == RobustKernel::GemanMcClure || k == RobustKernel::Tukey) {
+    if (k == registration::RobustKernel::GemanMcClure || k == registration::RobustKernel::Tukey) {
       EXPECT_LT(et, 2e-3) << toString(k);
       EXPECT_LT(er, 0.05) << toString(k);
     }
@@ -206,12 +215,12 @@ TEST(Icp, DeterministicAndThreadCountIndependent) {
   const PointCloud target = roomScene(40.0, 4);
   const PointCloud source = makeSource(target, kTruth, 0.7, 0.01, 5);
   const Isometry3d guess = kTruth * perturbation(0.2, 3.0);
-  IcpParams p;
+  registration::IcpParams p;
   p.threads = 1;
-  const MatchResult a = IcpMatcher(p).match(source, target, guess);
+  const registration::MatchResult a = registration::IcpMatcher(p).match(source, target, guess);
   p.threads = 2;
-  const MatchResult b = IcpMatcher(p).match(source, target, guess);
-  const MatchResult c = IcpMatcher(p).match(source, target, guess);
+  const registration::MatchResult b = registration::IcpMatcher(p).match(source, target, guess);
+  const registration::MatchResult c = registration::IcpMatcher(p).match(source, target, guess);
   ASSERT_GT(source.size(), 4096u);  // several chunks of 1024 points, so both threads work
   EXPECT_TRUE(a.T_target_source.isApprox(b.T_target_source, 0.0));
   EXPECT_TRUE(b.T_target_source.isApprox(c.T_target_source, 0.0));
@@ -221,13 +230,13 @@ TEST(Icp, DeterministicAndThreadCountIndependent) {
 
 TEST(Icp, PreparedTargetIsReusable) {
   const PointCloud target = roomScene(20.0, 1);
-  IcpMatcher icp(exactParams());
-  const PreparedTarget prepared = icp.prepare(target);
+  registration::IcpMatcher icp(exactParams());
+  const registration::PreparedTarget prepared = icp.prepare(target);
   for (std::uint64_t seed : {11u, 12u}) {
     const PointCloud source = makeSource(target, kTruth, 0.5, 0.0, seed);
     const Isometry3d guess = kTruth * perturbation(0.2, 4.0);
-    const MatchResult a = icp.match(source, prepared, guess);
-    const MatchResult b = icp.match(source, target, guess);
+    const registration::MatchResult a = icp.match(source, prepared, guess);
+    const registration::MatchResult b = icp.match(source, target, guess);
     EXPECT_TRUE(a.T_target_source.isApprox(b.T_target_source, 0.0));
     EXPECT_LT(poseError(a.T_target_source, kTruth).first, 1e-4);
   }
@@ -236,10 +245,11 @@ TEST(Icp, PreparedTargetIsReusable) {
 TEST(Icp, SourceVoxelisationStillConverges) {
   const PointCloud target = roomScene(60.0, 1);
   const PointCloud source = makeSource(target, kTruth, 1.0, 0.0, 2);
-  IcpParams p = exactParams();
+  registration::IcpParams p = exactParams();
   p.source_voxel = 0.3;
   p.target_voxel = 0.0;
-  const MatchResult r = IcpMatcher(p).match(source, target, kTruth * perturbation(0.2, 3.0));
+  const registration::MatchResult r =
+      registration::IcpMatcher(p).match(source, target, kTruth * perturbation(0.2, 3.0));
   // Voxel centroids are off the surfaces only at edges: a few mm at most.
   const auto [et, er] = poseError(r.T_target_source, kTruth);
   EXPECT_LT(et, 0.01);
@@ -251,33 +261,33 @@ TEST(Icp, SourceVoxelisationStillConverges) {
 TEST(Icp, ExpectedFailuresReturnAStatus) {
   const PointCloud target = roomScene(10.0, 1);
   const PointCloud source = makeSource(target, kTruth, 0.5, 0.0, 2);
-  const IcpMatcher icp;
+  const registration::IcpMatcher icp;
   PointCloud empty;
   auto r = icp.match(empty, target);
-  EXPECT_EQ(r.status, MatchStatus::EmptyInput);
+  EXPECT_EQ(r.status, registration::MatchStatus::EmptyInput);
   EXPECT_FALSE(r.message.empty());
-  EXPECT_EQ(icp.match(source, empty).status, MatchStatus::EmptyInput);
+  EXPECT_EQ(icp.match(source, empty).status, registration::MatchStatus::EmptyInput);
   // Only non-finite points = empty.
   PointCloud nan_cloud;
   nan_cloud.push_back(Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
-  EXPECT_EQ(icp.match(nan_cloud, target).status, MatchStatus::EmptyInput);
+  EXPECT_EQ(icp.match(nan_cloud, target).status, registration::MatchStatus::EmptyInput);
   // Too few points.
   PointCloud few;
   for (int i = 0; i < 10; ++i) few.push_back(source.points[std::size_t(i)]);
   r = icp.match(few, target, kTruth);
-  EXPECT_EQ(r.status, MatchStatus::TooFewPoints);
+  EXPECT_EQ(r.status, registration::MatchStatus::TooFewPoints);
   EXPECT_TRUE(r.T_target_source.isApprox(kTruth, 0.0));  // the guess comes back
   EXPECT_EQ(r.quality, 0.0);
   // The clouds 100 m apart: nothing within the gate.
   r = icp.match(source, target, makeIsometry(Eigen::Matrix3d::Identity(), {100, 0, 0}));
-  EXPECT_EQ(r.status, MatchStatus::TooFewCorrespondences);
+  EXPECT_EQ(r.status, registration::MatchStatus::TooFewCorrespondences);
   EXPECT_EQ(r.quality, 0.0);
   EXPECT_TRUE(r.information.isZero());
   // Iteration limit.
-  IcpParams p;
+  registration::IcpParams p;
   p.max_iterations = 1;
-  r = IcpMatcher(p).match(source, target, kTruth * perturbation(0.3, 5.0));
-  EXPECT_EQ(r.status, MatchStatus::NotConverged);
+  r = registration::IcpMatcher(p).match(source, target, kTruth * perturbation(0.3, 5.0));
+  EXPECT_EQ(r.status, registration::MatchStatus::NotConverged);
   EXPECT_FALSE(r.converged);
   EXPECT_EQ(r.iterations, 1);
   // A non-finite guess is a contract violation, not an expected failure.
@@ -285,9 +295,9 @@ TEST(Icp, ExpectedFailuresReturnAStatus) {
   bad(0, 3) = std::numeric_limits<double>::infinity();
   EXPECT_THROW(icp.match(source, target, bad), ContractError);
   // Bad parameters are contract violations too.
-  p = IcpParams();
+  p = registration::IcpParams();
   p.kernel_scale = 0.0;
-  EXPECT_THROW(IcpMatcher{p}, ContractError);
+  EXPECT_THROW(registration::IcpMatcher{p}, ContractError);
 }
 
 }  // namespace
@@ -323,13 +333,13 @@ PointCloud jittered(const PointCloud& c, double sigma, std::uint64_t seed) {
 /// both clouds jitter the same surface samples (the object protocols: the source is the target's
 /// points moved and jittered); otherwise each cloud samples the surface on its own.
 std::pair<double, double> planeVsPolish(bool same_points) {
-  IcpParams p;
+  registration::IcpParams p;
   p.max_correspondence_distance = 0.1;
   p.kernel_scale = 0.02;
   p.normal_neighbors = 10;
   p.max_iterations = 60;
   p.threads = 1;
-  IcpParams polished = p;
+  registration::IcpParams polished = p;
   polished.polish_max_correspondence_distance = 0.05;
   double plane = 0.0, polish = 0.0;
   const int runs = 8;
@@ -339,10 +349,11 @@ std::pair<double, double> planeVsPolish(bool same_points) {
     const PointCloud source =
         jittered(same_points ? surface : bumpyObject(640, 100 + k), 0.01, 30 + k)
             .transformed(kTruth.inverse(), "source");
-    const MatchResult a = IcpMatcher(p).match(source, target, kTruth);
-    const MatchResult b = IcpMatcher(polished).match(source, target, kTruth);
-    EXPECT_NE(a.status, MatchStatus::TooFewCorrespondences) << a.message;
-    EXPECT_NE(b.status, MatchStatus::TooFewCorrespondences) << b.message;
+    const registration::MatchResult a = registration::IcpMatcher(p).match(source, target, kTruth);
+    const registration::MatchResult b =
+        registration::IcpMatcher(polished).match(source, target, kTruth);
+    EXPECT_NE(a.status, registration::MatchStatus::TooFewCorrespondences) << a.message;
+    EXPECT_NE(b.status, registration::MatchStatus::TooFewCorrespondences) << b.message;
     plane += poseError(a.T_target_source, kTruth).second / runs;
     polish += poseError(b.T_target_source, kTruth).second / runs;
   }

@@ -27,19 +27,19 @@ class KittiIcp : public ::testing::Test {
 };
 
 TEST_F(KittiIcp, ConsecutiveScansConvergeFromIdentityAndCompose) {
-  IcpParams p;  // defaults: 1 m gate, Huber 0.1 m, point-to-plane, LM
-  const IcpMatcher icp(p);
-  const PreparedTarget t0 = icp.prepare(scans[0]);
-  const PreparedTarget t1 = icp.prepare(scans[1]);
-  const MatchResult r01 = icp.match(scans[1], t0);
-  const MatchResult r12 = icp.match(scans[2], t1);
-  const MatchResult r02 = icp.match(scans[2], t0);  // the prepared target 0 again
+  registration::IcpParams p;  // defaults: 1 m gate, Huber 0.1 m, point-to-plane, LM
+  const registration::IcpMatcher icp(p);
+  const registration::PreparedTarget t0 = icp.prepare(scans[0]);
+  const registration::PreparedTarget t1 = icp.prepare(scans[1]);
+  const registration::MatchResult r01 = icp.match(scans[1], t0);
+  const registration::MatchResult r12 = icp.match(scans[2], t1);
+  const registration::MatchResult r02 = icp.match(scans[2], t0);  // the prepared target 0 again
   for (const auto* r : {&r01, &r12, &r02}) {
-    EXPECT_EQ(r->status, MatchStatus::Ok) << r->message;
+    EXPECT_EQ(r->status, registration::MatchStatus::Ok) << r->message;
     EXPECT_TRUE(r->converged);
     EXPECT_GT(r->inlier_ratio, 0.5);
     EXPECT_GT(r->quality, 0.5);
-    EXPECT_GT(r->conditioning, ConfidenceParams().degeneracy_threshold);
+    EXPECT_GT(r->conditioning, registration::ConfidenceParams().degeneracy_threshold);
     EXPECT_TRUE(r->information.isApprox(r->information.transpose(), 1e-9));
     EXPECT_GT(Eigen::SelfAdjointEigenSolver<Matrix6d>(r->information).eigenvalues()(0), 0.0);
     // The vehicle moved: the solution is not the starting point.

@@ -31,15 +31,15 @@ class KittiObmNet : public ::testing::Test {
     const auto map_cfg =
         ConfigNode::loadFile(std::string(OBM_SOURCE_DIR) + "/config/map_kitti.yaml");
     const auto m = map_cfg.child("matcher");
-    ScanMatcherConfig cfg;
-    cfg.type = MatcherKind::ObmNetIcp;
-    cfg.icp = IcpParams::load(m.child("icp"));
-    cfg.confidence = ConfidenceParams::load(m.child("confidence"));
-    cfg.obmnet = ObmNetMatcherParams::load(m.child("obmnet"));
+    registration::ScanMatcherConfig cfg;
+    cfg.type = registration::MatcherKind::ObmNetIcp;
+    cfg.icp = registration::IcpParams::load(m.child("icp"));
+    cfg.confidence = registration::ConfidenceParams::load(m.child("confidence"));
+    cfg.obmnet = registration::ObmNetMatcherParams::load(m.child("obmnet"));
     cfg.obmnet.model_path = kModel;
-    matcher = makeScanMatcher(cfg);
-    cfg.type = MatcherKind::ObmNet;
-    network = makeScanMatcher(cfg);
+    matcher = registration::makeScanMatcher(cfg);
+    cfg.type = registration::MatcherKind::ObmNet;
+    network = registration::makeScanMatcher(cfg);
     for (std::size_t i = 0; i < 6; ++i) {
       const std::string path =
           test::sharedDataDir() + "/kitti/hdl64_sample/" + io::kittiScanFileName(i);
@@ -48,15 +48,15 @@ class KittiObmNet : public ::testing::Test {
       keyframe.push_back(voxelDownsample(full.back(), 0.3));
     }
   }
-  std::unique_ptr<ScanMatcher> matcher, network;
+  std::unique_ptr<registration::ScanMatcher> matcher, network;
   std::vector<PointCloud> full, keyframe;
 };
 
 TEST_F(KittiObmNet, TwoStepCompositionAgreesWithTheDirectRegistration) {
   for (std::size_t a = 0; a + 2 < 6; ++a) {
-    const MatchResult r01 = matcher->match(keyframe[a + 1], keyframe[a]);
-    const MatchResult r12 = matcher->match(keyframe[a + 2], keyframe[a + 1]);
-    const MatchResult r02 = matcher->match(keyframe[a + 2], keyframe[a]);
+    const registration::MatchResult r01 = matcher->match(keyframe[a + 1], keyframe[a]);
+    const registration::MatchResult r12 = matcher->match(keyframe[a + 2], keyframe[a + 1]);
+    const registration::MatchResult r02 = matcher->match(keyframe[a + 2], keyframe[a]);
     for (const auto* r : {&r01, &r12, &r02}) ASSERT_TRUE(r->ok()) << r->message;
     const auto [dt, dr] =
         test::poseError(r02.T_target_source, r01.T_target_source * r12.T_target_source);
@@ -66,25 +66,25 @@ TEST_F(KittiObmNet, TwoStepCompositionAgreesWithTheDirectRegistration) {
 }
 
 TEST_F(KittiObmNet, EveryPairAgreesWithDenseIcpOnTheFullSweeps) {
-  IcpParams dense;  // point-to-plane, Huber; every point of the full sweeps
+  registration::IcpParams dense;  // point-to-plane, Huber; every point of the full sweeps
   dense.source_voxel = 0.0;
   dense.target_voxel = 0.0;
-  const IcpMatcher icp(dense);
+  const registration::IcpMatcher icp(dense);
   double worst_net_t = 0.0, worst_net_r = 0.0;
   for (std::size_t a = 0; a < 6; ++a) {
-    const PreparedTarget target = icp.prepare(full[a]);
+    const registration::PreparedTarget target = icp.prepare(full[a]);
     for (std::size_t b = a + 1; b < 6 && b <= a + 2; ++b) {
-      const MatchResult ours = matcher->match(keyframe[b], keyframe[a]);
+      const registration::MatchResult ours = matcher->match(keyframe[b], keyframe[a]);
       ASSERT_TRUE(ours.ok()) << ours.message;
       // The dense reference starts from our pose: it judges the pose, it does not compete on
       // the basin of convergence.
-      const MatchResult ref = icp.match(full[b], target, ours.T_target_source);
+      const registration::MatchResult ref = icp.match(full[b], target, ours.T_target_source);
       ASSERT_TRUE(ref.ok()) << ref.message;
       const auto [dt, dr] = test::poseError(ours.T_target_source, ref.T_target_source);
       EXPECT_LT(dt, 0.10) << "pair " << b << "->" << a << ": translation [m]";
       EXPECT_LT(dr, 0.3) << "pair " << b << "->" << a << ": rotation [deg]";
       // The network alone (before ICP), recorded for the model card, not asserted.
-      const MatchResult net = network->match(keyframe[b], keyframe[a]);
+      const registration::MatchResult net = network->match(keyframe[b], keyframe[a]);
       if (net.ok()) {
         const auto [nt, nr] = test::poseError(net.T_target_source, ref.T_target_source);
         worst_net_t = std::max(worst_net_t, nt);

@@ -39,8 +39,8 @@ double rte(const Isometry3d& T, const Isometry3d& gt) {
   return (T.translation() - gt.translation()).norm();
 }
 
-ObmNetMatcherParams netParams(const std::string& model) {
-  ObmNetMatcherParams p;
+registration::ObmNetMatcherParams netParams(const std::string& model) {
+  registration::ObmNetMatcherParams p;
   p.model_path = model;
   p.threads = 1;
   p.pre_align = false;
@@ -54,15 +54,15 @@ PointCloud lidarCloud(const PointCloud& raw) {
 }
 
 /// ICP and confidence settings of the LiDAR accuracy tests (metres).
-IcpParams lidarIcp() {
-  IcpParams icp;
+registration::IcpParams lidarIcp() {
+  registration::IcpParams icp;
   icp.max_correspondence_distance = 1.0;
   icp.initial_max_correspondence_distance = 1.0;
   icp.kernel_scale = 0.2;
   return icp;
 }
-ConfidenceParams lidarConfidence() {
-  ConfidenceParams conf;
+registration::ConfidenceParams lidarConfidence() {
+  registration::ConfidenceParams conf;
   conf.inlier_threshold = 0.3;
   return conf;
 }
@@ -88,11 +88,11 @@ TEST(ModelAccuracy, ObjectModelOnIndependentSamplingsOfUnseenObjects) {
   ASSERT_GE(set.test.size(), 8u);
   const auto proto = obmnet::PairProtocol::preset("resampled");
   std::mt19937_64 rng(1);
-  ObmNetRegistrar::Options ro;
+  obmnet::ObmNetRegistrar::Options ro;
   ro.model_path = kModels + "obmnet_objects_resampled.pt";
   ro.threads = 1;
   ro.num_points = 768;
-  const ObmNetRegistrar net(ro);
+  const obmnet::ObmNetRegistrar net(ro);
   std::vector<double> net_rre, identity_rre;
   for (int i = 0; i < 8; ++i) {
     const auto pair = obmnet::makePair(set.test[static_cast<std::size_t>(i)], proto, rng);
@@ -120,10 +120,12 @@ TEST(ModelAccuracy, LidarModelOnTheRealOutdoorPair) {
   const Isometry3d gt = test::readMatrix4(d + "T_target_source.txt");
   const PointCloud source = lidarCloud(io::readPointCloud(d + "source.ply"));
   const PointCloud target = lidarCloud(io::readPointCloud(d + "target.ply"));
-  const IcpParams icp = lidarIcp();
-  const ConfidenceParams conf = lidarConfidence();
-  const ObmNetMatcher network(netParams(kModels + "obmnet_lidar_pairs.pt"), icp, conf);
-  const ObmNetIcpMatcher refined(netParams(kModels + "obmnet_lidar_pairs.pt"), icp, conf);
+  const registration::IcpParams icp = lidarIcp();
+  const registration::ConfidenceParams conf = lidarConfidence();
+  const registration::ObmNetMatcher network(netParams(kModels + "obmnet_lidar_pairs.pt"), icp,
+                                            conf);
+  const registration::ObmNetIcpMatcher refined(netParams(kModels + "obmnet_lidar_pairs.pt"), icp,
+                                               conf);
   // Both sweeps turned apart by 120° about z: the identity is no prior any more.
   Isometry3d turn = Isometry3d::Identity();
   turn.linear() = Eigen::AngleAxisd(120.0 / kDegPerRad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
@@ -131,8 +133,8 @@ TEST(ModelAccuracy, LidarModelOnTheRealOutdoorPair) {
   const Isometry3d gt_turned = gt * turn.inverse();
   for (const auto& [cloud, truth] :
        {std::pair<const PointCloud*, Isometry3d>{&source, gt}, {&turned, gt_turned}}) {
-    const MatchResult a = network.match(*cloud, target);
-    const MatchResult b = refined.match(*cloud, target);
+    const registration::MatchResult a = network.match(*cloud, target);
+    const registration::MatchResult b = refined.match(*cloud, target);
     std::printf("network RRE %.2f deg RTE %.2f m; +ICP RRE %.3f deg RTE %.3f m; identity RRE %.1f deg RTE %.2f m\n",
                 rreDeg(a.T_target_source, truth), rte(a.T_target_source, truth),
                 rreDeg(b.T_target_source, truth), rte(b.T_target_source, truth),
@@ -153,12 +155,12 @@ TEST(ModelAccuracy, SmallLidarModelOnRealKittiSweepsFiveApart) {
   auto sweep = [&](std::size_t i) {
     return lidarCloud(io::readKittiVelodyne(d + io::kittiScanFileName(i)));
   };
-  const IcpParams icp = lidarIcp();
-  const ConfidenceParams conf = lidarConfidence();
-  const IcpMatcher chain_icp(icp, conf);
+  const registration::IcpParams icp = lidarIcp();
+  const registration::ConfidenceParams conf = lidarConfidence();
+  const registration::IcpMatcher chain_icp(icp, conf);
   const std::string model = kModels + "obmnet_lidar_small.pt";
-  const ObmNetMatcher network(netParams(model), icp, conf);
-  const ObmNetIcpMatcher refined(netParams(model), icp, conf);
+  const registration::ObmNetMatcher network(netParams(model), icp, conf);
+  const registration::ObmNetIcpMatcher refined(netParams(model), icp, conf);
   Isometry3d step = Isometry3d::Identity();
   step.translation() = Eigen::Vector3d(0.8, 0.0, 0.0);
   double net_t = 0.0, identity_t = 0.0;
@@ -166,14 +168,14 @@ TEST(ModelAccuracy, SmallLidarModelOnRealKittiSweepsFiveApart) {
   for (const std::size_t i : {std::size_t{0}, std::size_t{8}, std::size_t{16}}) {
     Isometry3d reference = Isometry3d::Identity();  // T_i_(i+5)
     for (std::size_t j = i; j < i + 5; ++j) {
-      const MatchResult r = chain_icp.match(sweep(j + 1), sweep(j), step);
+      const registration::MatchResult r = chain_icp.match(sweep(j + 1), sweep(j), step);
       ASSERT_GT(r.inlier_ratio, 0.7) << "chain " << j + 1 << " -> " << j;
       reference = reference * r.T_target_source;
     }
     const PointCloud source = sweep(i + 5), target = sweep(i);
-    const MatchResult a = network.match(source, target);
-    const MatchResult b = refined.match(source, target);
-    const MatchResult c = chain_icp.match(source, target);
+    const registration::MatchResult a = network.match(source, target);
+    const registration::MatchResult b = refined.match(source, target);
+    const registration::MatchResult c = chain_icp.match(source, target);
     std::printf("sweeps %zu->%zu (%.2f m): network RRE %.2f deg RTE %.2f m; +ICP RRE %.3f deg RTE "
                 "%.3f m; ICP from the identity RRE %.2f deg RTE %.2f m\n",
                 i + 5, i, reference.translation().norm(), rreDeg(a.T_target_source, reference),
@@ -195,20 +197,20 @@ TEST(ModelAccuracy, IndoorModelOnPairsOfRealRgbdFrames) {
   OBM_REQUIRE_SHARED_DATA("rgbd_open3d/trajectory.log");
   const auto seq = io::RgbdSequence::openRedwood(test::sharedDataDir() + "/rgbd_open3d");
   ASSERT_GE(seq.size(), 5u);
-  IcpParams icp;
+  registration::IcpParams icp;
   icp.max_correspondence_distance = 0.05;
   icp.initial_max_correspondence_distance = 0.05;
   icp.kernel_scale = 0.01;
-  ConfidenceParams conf;
+  registration::ConfidenceParams conf;
   conf.inlier_threshold = 0.02;
-  const ObmNetIcpMatcher refined(netParams(kModels + "obmnet_indoor.pt"), icp, conf);
+  const registration::ObmNetIcpMatcher refined(netParams(kModels + "obmnet_indoor.pt"), icp, conf);
   int ok = 0, n = 0;
   for (std::size_t i = 0; i < seq.size(); ++i)
     for (std::size_t j = i + 1; j < seq.size(); ++j) {
       const PointCloud s = voxelDownsample(seq.cloud(j, 0.3, 4.0, 2), 0.01);
       const PointCloud t = voxelDownsample(seq.cloud(i, 0.3, 4.0, 2), 0.01);
       const Isometry3d truth = seq.frame(i).T_world_camera.inverse() * seq.frame(j).T_world_camera;
-      const MatchResult r = refined.match(s, t);
+      const registration::MatchResult r = refined.match(s, t);
       const double e_r = rreDeg(r.T_target_source, truth), e_t = rte(r.T_target_source, truth);
       std::printf("frames %zu->%zu: +ICP RRE %.2f deg RTE %.3f m\n", j, i, e_r, e_t);
       ok += (e_r < 5.0 && e_t < 0.1) ? 1 : 0;

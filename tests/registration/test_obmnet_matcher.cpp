@@ -33,12 +33,12 @@ class ObmNetMatchers : public ::testing::Test {
     // parallel, and scratchDir() empties the folder it returns.
     dir() = test::scratchDir("registration_obmnet_" + std::to_string(::getpid()));
     torch::manual_seed(17);
-    ObmNetConfig c;
+    obmnet::ObmNetConfig c;
     c.emb_dims = 16;
     c.n_samples = 8;
     c.n_iters = 1;
     c.n_keypoints = 64;
-    ObmNet net(c);
+    obmnet::ObmNet net(c);
     obmnet::ModelMeta meta;
     meta.num_points = 384;
     meta.description = "random test model";
@@ -46,15 +46,15 @@ class ObmNetMatchers : public ::testing::Test {
     // Neighbourhoods of 16 points: refuses clouds smaller than that.
     c.k1 = 16;
     c.k2 = 16;
-    ObmNet wide(c);
+    obmnet::ObmNet wide(c);
     obmnet::saveModel(dir() + "/k16.pt", wide, meta);
   }
   static std::string& dir() {
     static std::string d;
     return d;
   }
-  static ObmNetMatcherParams params(const std::string& file = "small.pt") {
-    ObmNetMatcherParams p;
+  static registration::ObmNetMatcherParams params(const std::string& file = "small.pt") {
+    registration::ObmNetMatcherParams p;
     p.model_path = dir() + "/" + file;
     p.threads = 1;
     return p;
@@ -72,12 +72,12 @@ TEST_F(ObmNetMatchers, ObmNetAloneReportsFiniteDiagnostics) {
   const PointCloud target = test::roomScene(1.5, 1);
   const PointCloud source = makeSource(target, kTruth, 1.0, 0.0, 2);
   ASSERT_LE(source.size(), 384u);  // the network sees every point
-  IcpParams icp;
+  registration::IcpParams icp;
   icp.max_correspondence_distance = 2.0;
-  const ObmNetMatcher m(params(), icp);
+  const registration::ObmNetMatcher m(params(), icp);
   EXPECT_EQ(m.name(), "obmnet");
   EXPECT_NE(m.describe().find("random test model"), std::string::npos);
-  const MatchResult r = m.match(source, target, kTruth);
+  const registration::MatchResult r = m.match(source, target, kTruth);
   RecordProperty("match_status", toString(r.status));
   RecordProperty("error_m", std::to_string(poseError(r.T_target_source, kTruth).first));
   EXPECT_TRUE(r.T_target_source.matrix().allFinite());
@@ -91,12 +91,12 @@ TEST_F(ObmNetMatchers, ObmNetAloneReportsFiniteDiagnostics) {
   EXPECT_EQ(r.iterations, 0);
   EXPECT_GT(r.runtime_ms, 0.0);
   expectSymmetricPsd(r.information);
-  if (r.status != MatchStatus::TooFewCorrespondences) {
+  if (r.status != registration::MatchStatus::TooFewCorrespondences) {
     EXPECT_GT(r.information.trace(), 0.0);
     EXPECT_GT(r.sigma, 0.0);
   }
   // Deterministic.
-  const MatchResult again = m.match(source, target, kTruth);
+  const registration::MatchResult again = m.match(source, target, kTruth);
   EXPECT_TRUE(again.T_target_source.isApprox(r.T_target_source, 0.0));
   EXPECT_TRUE(again.information == r.information);
 }
@@ -105,17 +105,17 @@ TEST_F(ObmNetMatchers, PreAlignComposesWithTheGuessOtherwiseIgnoresIt) {
   const PointCloud target = test::roomScene(1.5, 3);
   const PointCloud source = makeSource(target, kTruth, 1.0, 0.0, 4);
   const Isometry3d guess = kTruth * perturbation(0.3, 4.0);
-  ObmNetMatcherParams p = params();
+  registration::ObmNetMatcherParams p = params();
   p.pre_align = false;
-  const ObmNetMatcher raw(p);
-  const MatchResult a = raw.match(source, target, guess);
-  const MatchResult b = raw.match(source, target, Isometry3d::Identity());
+  const registration::ObmNetMatcher raw(p);
+  const registration::MatchResult a = raw.match(source, target, guess);
+  const registration::MatchResult b = raw.match(source, target, Isometry3d::Identity());
   EXPECT_TRUE(a.T_target_source.isApprox(b.T_target_source, 0.0));
   // pre_align: T = ΔT · T_init with ΔT the network's pose for the moved source.
   p.pre_align = true;
-  const ObmNetMatcher pre(p);
-  const MatchResult c = pre.match(source, target, guess);
-  const MatchResult d = raw.match(source.transformed(guess, "target"), target);
+  const registration::ObmNetMatcher pre(p);
+  const registration::MatchResult c = pre.match(source, target, guess);
+  const registration::MatchResult d = raw.match(source.transformed(guess, "target"), target);
   EXPECT_TRUE(c.T_target_source.isApprox(d.T_target_source * guess, 1e-9))
       << c.T_target_source.matrix() << "\n\n"
       << (d.T_target_source * guess).matrix();
@@ -123,18 +123,19 @@ TEST_F(ObmNetMatchers, PreAlignComposesWithTheGuessOtherwiseIgnoresIt) {
 
 TEST_F(ObmNetMatchers, ExpectedFailuresAndBadModels) {
   const PointCloud target = test::roomScene(1.5, 5);
-  IcpParams icp;
+  registration::IcpParams icp;
   icp.min_correspondences = 6;
-  const ObmNetMatcher m(params("k16.pt"), icp);
+  const registration::ObmNetMatcher m(params("k16.pt"), icp);
   PointCloud few;
   for (int i = 0; i < 10; ++i) few.push_back(target.points[std::size_t(i)]);
-  const MatchResult r = m.match(few, target);
-  EXPECT_EQ(r.status, MatchStatus::TooFewPoints);  // the network's neighbourhoods need 16
+  const registration::MatchResult r = m.match(few, target);
+  EXPECT_EQ(r.status,
+            registration::MatchStatus::TooFewPoints);  // the network's neighbourhoods need 16
   EXPECT_NE(r.message.find("16"), std::string::npos) << r.message;
-  EXPECT_EQ(m.match(PointCloud(), target).status, MatchStatus::EmptyInput);
-  const ObmNetIcpMatcher mi(params("k16.pt"), icp);
-  EXPECT_EQ(mi.match(few, target).status, MatchStatus::TooFewPoints);
-  EXPECT_THROW(ObmNetMatcher(params("missing.pt")), IoError);
+  EXPECT_EQ(m.match(PointCloud(), target).status, registration::MatchStatus::EmptyInput);
+  const registration::ObmNetIcpMatcher mi(params("k16.pt"), icp);
+  EXPECT_EQ(mi.match(few, target).status, registration::MatchStatus::TooFewPoints);
+  EXPECT_THROW(registration::ObmNetMatcher(params("missing.pt")), IoError);
 }
 
 TEST_F(ObmNetMatchers, QualityAndConditioningAreThoseOfThePoseOnEverySourcePoint) {
@@ -143,28 +144,32 @@ TEST_F(ObmNetMatchers, QualityAndConditioningAreThoseOfThePoseOnEverySourcePoint
   // taken on the network's weighted sample or with its predicted overlap.
   const PointCloud target = test::roomScene(20.0, 10);
   const PointCloud source = makeSource(target, kTruth, 0.6, 0.0, 11);
-  IcpParams icp;
+  registration::IcpParams icp;
   icp.kernel_scale = 0.5;
-  const ConfidenceParams conf;
-  const ObmNetIcpMatcher refined(params(), icp, conf);
-  const ObmNetMatcher alone(params(), icp, conf);
-  const PreparedTarget prepared = refined.prepare(target);
-  for (const ScanMatcher* m : {static_cast<const ScanMatcher*>(&refined),
-                               static_cast<const ScanMatcher*>(&alone)}) {
-    const MatchResult r = m->match(source, prepared, kTruth * perturbation(0.2, 3.0));
-    ASSERT_NE(r.status, MatchStatus::TooFewCorrespondences) << m->name() << ": " << r.message;
-    const AlignmentStats all =
-        evaluateAlignment(source.points, nullptr, prepared, r.T_target_source, icp, conf);
+  const registration::ConfidenceParams conf;
+  const registration::ObmNetIcpMatcher refined(params(), icp, conf);
+  const registration::ObmNetMatcher alone(params(), icp, conf);
+  const registration::PreparedTarget prepared = refined.prepare(target);
+  for (const registration::ScanMatcher* m :
+       {static_cast<const registration::ScanMatcher*>(&refined),
+        static_cast<const registration::ScanMatcher*>(&alone)}) {
+    const registration::MatchResult r = m->match(source, prepared, kTruth * perturbation(0.2, 3.0));
+    ASSERT_NE(r.status, registration::MatchStatus::TooFewCorrespondences)
+        << m->name() << ": " << r.message;
+    const registration::AlignmentStats all = registration::evaluateAlignment(
+        source.points, nullptr, prepared, r.T_target_source, icp, conf);
     EXPECT_DOUBLE_EQ(r.conditioning, all.conditioning) << m->name();
-    EXPECT_DOUBLE_EQ(r.quality, matchQuality(all.inlier_ratio, all.rmse, all.overlap,
-                                             all.conditioning, icp.max_correspondence_distance,
-                                             conf))
+    EXPECT_DOUBLE_EQ(r.quality, registration::matchQuality(all.inlier_ratio, all.rmse, all.overlap,
+                                                           all.conditioning,
+                                                           icp.max_correspondence_distance, conf))
         << m->name();
     EXPECT_GE(r.network_confidence, 0.0) << m->name() << ": the network's own view is kept";
   }
   // At the exact pose of the refined matcher, ICP reports the same quality.
-  const MatchResult r = refined.match(source, prepared, kTruth * perturbation(0.2, 3.0));
-  const MatchResult i = IcpMatcher(icp, conf).match(source, prepared, r.T_target_source);
+  const registration::MatchResult r =
+      refined.match(source, prepared, kTruth * perturbation(0.2, 3.0));
+  const registration::MatchResult i =
+      registration::IcpMatcher(icp, conf).match(source, prepared, r.T_target_source);
   EXPECT_GT(r.quality, 0.5);
   EXPECT_NEAR(r.quality, i.quality, 1e-6);
 }
@@ -174,17 +179,17 @@ TEST_F(ObmNetMatchers, OverlapStageKeepsTheExactSolution) {
   // ICP starts, not what it converges to: on the noise-free room both reach the truth.
   const PointCloud target = test::roomScene(20.0, 8);
   const PointCloud source = makeSource(target, kTruth, 0.6, 0.0, 9);
-  IcpParams icp;
+  registration::IcpParams icp;
   icp.kernel_scale = 0.5;
   icp.translation_tolerance = 1e-7;
   icp.rotation_tolerance = 1e-7;
   icp.max_iterations = 100;
-  ObmNetMatcherParams p = params();
+  registration::ObmNetMatcherParams p = params();
   for (const double keep : {0.0, 0.5, 1.0}) {
     p.overlap_stage_keep = keep;
-    const ObmNetIcpMatcher m(p, icp);
-    const MatchResult r = m.match(source, target, kTruth * perturbation(0.3, 5.0));
-    EXPECT_EQ(r.status, MatchStatus::Ok) << "keep " << keep << ": " << r.message;
+    const registration::ObmNetIcpMatcher m(p, icp);
+    const registration::MatchResult r = m.match(source, target, kTruth * perturbation(0.3, 5.0));
+    EXPECT_EQ(r.status, registration::MatchStatus::Ok) << "keep " << keep << ": " << r.message;
     const auto [et, er] = poseError(r.T_target_source, kTruth);
     EXPECT_LT(et, 1e-4) << "keep " << keep << ": translation error [m]";
     EXPECT_LT(er, 1e-3) << "keep " << keep << ": rotation error [deg]";
@@ -206,13 +211,15 @@ TEST_P(MatcherConvergence, NoiseFreeRoomFromPerturbedGuess) {
                            kernel +
                            ", kernel_scale: 0.5, translation_tolerance: 1.0e-7, "
                            "rotation_tolerance_deg: 1.0e-5, max_iterations: 100}\n";
-  const auto matcher = makeScanMatcher(ScanMatcherConfig::load(ConfigNode::fromString(yaml)));
+  const auto matcher = registration::makeScanMatcher(
+      registration::ScanMatcherConfig::load(ConfigNode::fromString(yaml)));
   EXPECT_EQ(matcher->name(), type);
   const PointCloud target = test::roomScene(20.0, 6);
   const PointCloud source = makeSource(target, kTruth, 0.6, 0.0, 7);
   for (const auto& [trans, deg] : {std::pair{0.3, 5.0}, std::pair{-0.2, -6.0}}) {
-    const MatchResult r = matcher->match(source, target, kTruth * perturbation(trans, deg));
-    EXPECT_EQ(r.status, MatchStatus::Ok) << r.message;
+    const registration::MatchResult r =
+        matcher->match(source, target, kTruth * perturbation(trans, deg));
+    EXPECT_EQ(r.status, registration::MatchStatus::Ok) << r.message;
     const auto [et, er] = poseError(r.T_target_source, kTruth);
     EXPECT_LT(et, 1e-4) << "translation error [m]";
     EXPECT_LT(er, 1e-3) << "rotation error [deg]";

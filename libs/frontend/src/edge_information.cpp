@@ -19,25 +19,26 @@ Matrix6d edgeInformation(const Matrix6d& omega_theta, double scale, double sigma
   Vector6d ev = es.eigenvalues().cwiseMax(1.0);
   F = es.eigenvectors() * ev.asDiagonal() * es.eigenvectors().transpose();
   F = 0.5 * (F + F.transpose());
-  return informationThetaToG2o(F);
+  return registration::informationThetaToG2o(F);
 }
 
 Matrix6d bridgeInformation(double sigma_t, double sigma_r) {
   Vector6d d;
   const double it = 1.0 / (sigma_t * sigma_t), ir = 1.0 / (sigma_r * sigma_r);
   d << it, it, it, ir, ir, ir;
-  return informationThetaToG2o(Matrix6d(d.asDiagonal()));
+  return registration::informationThetaToG2o(Matrix6d(d.asDiagonal()));
 }
 
-Matrix6d odometryEdgeInformation(const TrackingParams& params, const MatchResult* match,
-                                 bool bridged) {
+Matrix6d odometryEdgeInformation(const TrackingParams& params,
+                                 const registration::MatchResult* match, bool bridged) {
   if (bridged || match == nullptr)
     return bridgeInformation(params.bridge_sigma_translation, params.bridge_sigma_rotation);
   return edgeInformation(match->information, params.information_scale,
                          params.floor_sigma_translation, params.floor_sigma_rotation);
 }
 
-Matrix6d loopEdgeInformation(const LoopClosureParams& params, const MatchResult& match) {
+Matrix6d loopEdgeInformation(const LoopClosureParams& params,
+                             const registration::MatchResult& match) {
   return edgeInformation(match.information, params.information_scale,
                          params.floor_sigma_translation, params.floor_sigma_rotation);
 }

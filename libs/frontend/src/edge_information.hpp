@@ -23,11 +23,12 @@ Matrix6d bridgeInformation(double sigma_t, double sigma_r);
 /// The edge from the previous keyframe to a new one: a bridge edge (TrackingParams::bridge_sigma_*)
 /// when the keyframe restarts the local map or has no match, else the match's information with
 /// the odometry floor (TrackingParams::information_scale, floor_sigma_*).
-Matrix6d odometryEdgeInformation(const TrackingParams& params, const MatchResult* match,
-                                 bool bridged);
+Matrix6d odometryEdgeInformation(const TrackingParams& params,
+                                 const registration::MatchResult* match, bool bridged);
 
 /// A verified loop closure's edge: the match's information with the loop floor
 /// (LoopClosureParams::information_scale, floor_sigma_*).
-Matrix6d loopEdgeInformation(const LoopClosureParams& params, const MatchResult& match);
+Matrix6d loopEdgeInformation(const LoopClosureParams& params,
+                             const registration::MatchResult& match);
 
 }  // namespace obm::frontend

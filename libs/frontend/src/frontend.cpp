@@ -53,12 +53,12 @@ MatcherChoice chooseMatcher(const FrontendParams& params) {
   MatcherChoice c;
   c.config = params.matcher;
   const std::string type = toString(c.config.type);
-  if (!usesNetwork(c.config.type)) {
+  if (!registration::usesNetwork(c.config.type)) {
     c.message = "matcher: " + type;
     return c;
   }
   const std::string& model = c.config.obmnet.model_path;
-  const bool available = obmNetAvailable();
+  const bool available = registration::obmNetAvailable();
   if (available && std::filesystem::is_regular_file(model)) {
     c.message = "matcher: " + type + " (model " + model + ")";
     return c;
@@ -72,7 +72,7 @@ MatcherChoice chooseMatcher(const FrontendParams& params) {
     throw IoError("matcher: the OBMNet model '" + model + "' of matcher.type '" + type +
                   "' does not exist (train one with obm-train, or set matcher.fallback: icp)");
   }
-  if (usesNetwork(*params.matcher_fallback))
+  if (registration::usesNetwork(*params.matcher_fallback))
     throw ConfigError("matcher.fallback: '" + std::string(toString(*params.matcher_fallback)) +
                       "' needs the same missing model '" + model + "'; use icp");
   c.config.type = *params.matcher_fallback;
@@ -86,7 +86,7 @@ MatcherChoice chooseMatcher(const FrontendParams& params) {
 /// the local map) and the loop closer; the pose graph is optimised after an accepted loop.
 struct Frontend::Impl {
   FrontendParams p;
-  std::unique_ptr<ScanMatcher> matcher;  // loop verification, last-resort recovery
+  std::unique_ptr<registration::ScanMatcher> matcher;  // loop verification, last-resort recovery
   KeyframeSelector selector;
   double inl_ref_before = 0.0;  ///< the tracker's recent inlier ratio before the current frame
   ConstantVelocityModel motion;
@@ -111,7 +111,7 @@ struct Frontend::Impl {
   FrontendStats stats;
   StageTimes times;
 
-  Impl(const FrontendParams& params, std::unique_ptr<ScanMatcher> m)
+  Impl(const FrontendParams& params, std::unique_ptr<registration::ScanMatcher> m)
       : p(params),
         matcher(std::move(m)),
         selector(params.keyframes),
@@ -245,8 +245,8 @@ struct Frontend::Impl {
   std::optional<Isometry3d> matcherStart(const PointCloud& source) {
     TimedStage s(times, Stage::StartSearch);
     const Keyframe& kf = keyframes.back();
-    const PreparedTarget target = matcher->prepare(kf.cloud);
-    const MatchResult r = matcher->match(source, target, Isometry3d::Identity());
+    const registration::PreparedTarget target = matcher->prepare(kf.cloud);
+    const registration::MatchResult r = matcher->match(source, target, Isometry3d::Identity());
     if (!r.T_target_source.matrix().allFinite()) return std::nullopt;
     return kf.T_world_sensor * r.T_target_source;
   }
@@ -348,7 +348,8 @@ struct Frontend::Impl {
   /// A new keyframe: its cloud and descriptor, a pose-graph node joined to the previous keyframe
   /// by an odometry edge (a bridge edge after a restart), and the local map rebuilt.
   void addKeyframe(std::size_t frame_index, double timestamp, const Isometry3d& T_world_sensor,
-                   const PointCloud& cropped, const MatchResult* match, bool bridged) {
+                   const PointCloud& cropped, const registration::MatchResult* match,
+                   bool bridged) {
     Keyframe kf;
     kf.id = keyframes.size();
     kf.frame_index = frame_index;
@@ -478,10 +479,11 @@ Frontend::Frontend(const FrontendParams& params) {
     OBM_LOG_WARN(kLog, choice.message);
   else
     OBM_LOG_INFO(kLog, choice.message);
-  impl_ = std::make_unique<Impl>(params, makeScanMatcher(choice.config));
+  impl_ = std::make_unique<Impl>(params, registration::makeScanMatcher(choice.config));
 }
 
-Frontend::Frontend(const FrontendParams& params, std::unique_ptr<ScanMatcher> matcher) {
+Frontend::Frontend(const FrontendParams& params,
+                   std::unique_ptr<registration::ScanMatcher> matcher) {
   OBM_ASSERT(matcher != nullptr, "Frontend: the matcher must not be null");
   impl_ = std::make_unique<Impl>(params, std::move(matcher));
 }

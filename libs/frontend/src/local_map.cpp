@@ -7,7 +7,8 @@
 
 namespace obm::frontend {
 
-LocalMap::LocalMap(const LocalMapParams& params, const PreparedTarget::Options& target_options)
+LocalMap::LocalMap(const LocalMapParams& params,
+                   const registration::PreparedTarget::Options& target_options)
     : params_(params), target_options_(target_options) {}
 
 LocalMap::~LocalMap() = default;
@@ -52,7 +53,7 @@ void LocalMap::rebuild(const std::vector<Keyframe>& keyframes, std::size_t frame
                            keyframes[i].cloud.colors.end());
   }
   const bool async = allow_async && params_.async && current_ != nullptr;
-  PreparedTarget::Options opt = target_options_;
+  registration::PreparedTarget::Options opt = target_options_;
   if (async) opt.threads = 1;  // the other core tracks meanwhile
   const double voxel = k > first ? params_.voxel : 0.0;
   const Vector3f center = keyframes[k].T_world_sensor.translation().cast<float>();
@@ -70,7 +71,7 @@ void LocalMap::rebuild(const std::vector<Keyframe>& keyframes, std::size_t frame
       }
     cropped.frame_id = "world";
     BuiltMap m;
-    m.target = std::make_unique<PreparedTarget>(cropped, opt);
+    m.target = std::make_unique<registration::PreparedTarget>(cropped, opt);
     m.ms = t.ms();
     return m;
   };

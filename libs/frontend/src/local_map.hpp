@@ -25,7 +25,8 @@ class LocalMap {
   static constexpr std::size_t kDelayFrames = 3;
 
   /// `target_options`: how the merged cloud is prepared (the tracking ICP's target options).
-  LocalMap(const LocalMapParams& params, const PreparedTarget::Options& target_options);
+  LocalMap(const LocalMapParams& params,
+           const registration::PreparedTarget::Options& target_options);
   /// Waits for a build still running.
   ~LocalMap();
   LocalMap(const LocalMap&) = delete;
@@ -33,7 +34,7 @@ class LocalMap {
 
   bool exists() const { return current_ != nullptr; }
   /// The map in use (exists() must be true).
-  const PreparedTarget& target() const { return *current_; }
+  const registration::PreparedTarget& target() const { return *current_; }
 
   /// From now on the map holds keyframes from `first_keyframe` on only (a restart).
   void restartAt(std::size_t first_keyframe) { first_ = first_keyframe; }
@@ -58,13 +59,13 @@ class LocalMap {
 
  private:
   struct BuiltMap {
-    std::unique_ptr<PreparedTarget> target;
+    std::unique_ptr<registration::PreparedTarget> target;
     double ms = 0.0;  // build time in the worker
   };
 
   LocalMapParams params_;
-  PreparedTarget::Options target_options_;
-  std::unique_ptr<PreparedTarget> current_;
+  registration::PreparedTarget::Options target_options_;
+  std::unique_ptr<registration::PreparedTarget> current_;
   std::future<BuiltMap> pending_;       // the next local map, being built
   std::size_t pending_from_frame_ = 0;  // frame index from which it replaces the current one
   std::size_t first_ = 0;               // oldest keyframe the map may use (after a restart)

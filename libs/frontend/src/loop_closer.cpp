@@ -16,7 +16,7 @@ constexpr const char* kLog = "frontend";
 }  // namespace
 
 backend::Edge3 loopEdge(const LoopClosureParams& params, const LoopClosure& lc,
-                        const MatchResult& match) {
+                        const registration::MatchResult& match) {
   backend::Edge3 e;
   e.from = static_cast<backend::NodeId>(lc.from);
   e.to = static_cast<backend::NodeId>(lc.to);
@@ -27,9 +27,11 @@ backend::Edge3 loopEdge(const LoopClosureParams& params, const LoopClosure& lc,
   return e;
 }
 
-Rejection checkMatch(const MatchResult& r, double min_quality, double min_inlier_ratio) {
+Rejection checkMatch(const registration::MatchResult& r, double min_quality,
+                     double min_inlier_ratio) {
   using K = RejectionKind;
-  if (r.status != MatchStatus::Ok && r.status != MatchStatus::NotConverged)
+  if (r.status != registration::MatchStatus::Ok &&
+      r.status != registration::MatchStatus::NotConverged)
     return {K::MatchStatus, std::string("match status ") + toString(r.status)};
   if (!r.T_target_source.matrix().allFinite()) return {K::NonFinitePose, "non-finite pose"};
   if (r.quality < min_quality) return {K::Quality, "quality " + std::to_string(r.quality)};
@@ -45,7 +47,7 @@ bool nearTried(const std::vector<std::size_t>& tried, std::size_t j, long window
 }
 
 LoopCloser::LoopCloser(const LoopClosureParams& params, double submap_voxel,
-                       const ScanMatcher& matcher)
+                       const registration::ScanMatcher& matcher)
     : params_(params), submap_voxel_(submap_voxel), matcher_(matcher) {}
 
 std::size_t LoopCloser::search(const std::vector<Keyframe>& keyframes,
@@ -80,7 +82,7 @@ std::size_t LoopCloser::search(const std::vector<Keyframe>& keyframes,
       continue;
     }
     ++stats.loop_candidates;
-    const MatchResult r = verify(lc, keyframes, times);
+    const registration::MatchResult r = verify(lc, keyframes, times);
     const Rejection why = check(lc, r, keyframes);
     lc.rejection = why.kind;
     lc.reason = why.detail;
@@ -133,19 +135,22 @@ std::vector<std::pair<double, std::size_t>> LoopCloser::candidates(
   return found;
 }
 
-MatchResult LoopCloser::verify(LoopClosure& lc, const std::vector<Keyframe>& keyframes,
-                               StageTimes& times) const {
+registration::MatchResult LoopCloser::verify(LoopClosure& lc,
+                                             const std::vector<Keyframe>& keyframes,
+                                             StageTimes& times) const {
   const Isometry3d T_init =
       keyframes[lc.from].T_world_sensor.inverse() * keyframes[lc.to].T_world_sensor;
   return verifyFrom(lc, keyframes, T_init, times);
 }
 
-MatchResult LoopCloser::verifyFrom(LoopClosure& lc, const std::vector<Keyframe>& keyframes,
-                                   const Isometry3d& T_init, StageTimes& times) const {
+registration::MatchResult LoopCloser::verifyFrom(LoopClosure& lc,
+                                                 const std::vector<Keyframe>& keyframes,
+                                                 const Isometry3d& T_init,
+                                                 StageTimes& times) const {
   const LoopClosureParams& lp = params_;
   const Keyframe& cur = keyframes[lc.to];
   const Keyframe& cand = keyframes[lc.from];
-  MatchResult r;
+  registration::MatchResult r;
   {
     TimedStage s(times, verifyStage());
     // Target: the candidate and its neighbours, in the candidate's frame.
@@ -161,7 +166,7 @@ MatchResult LoopCloser::verifyFrom(LoopClosure& lc, const std::vector<Keyframe>&
       for (const Vector3f& q : kf.cloud.points) submap.points.push_back(T * q);
     }
     if (submap_voxel_ > 0.0) submap = voxelDownsample(submap, submap_voxel_);
-    const PreparedTarget target = matcher_.prepare(submap);
+    const registration::PreparedTarget target = matcher_.prepare(submap);
     r = matcher_.match(cur.cloud, target, T_init);
   }
   lc.T_from_to = r.T_target_source;
@@ -173,8 +178,8 @@ MatchResult LoopCloser::verifyFrom(LoopClosure& lc, const std::vector<Keyframe>&
   return r;
 }
 
-Rejection LoopCloser::check(const LoopClosure& lc, const MatchResult& r,
-                           const std::vector<Keyframe>& keyframes) const {
+Rejection LoopCloser::check(const LoopClosure& lc, const registration::MatchResult& r,
+                            const std::vector<Keyframe>& keyframes) const {
   const LoopClosureParams& lp = params_;
   const double travelled = keyframes[lc.to].travelled - keyframes[lc.from].travelled;
   const double max_corr =

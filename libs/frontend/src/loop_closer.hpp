@@ -21,11 +21,12 @@ namespace obm::frontend {
 /// The pose-graph edge of an accepted loop: lc.from → lc.to with the match's pose, its information
 /// (loopEdgeInformation) and the robust loss of loop edges.
 backend::Edge3 loopEdge(const LoopClosureParams& params, const LoopClosure& lc,
-                        const MatchResult& match);
+                        const registration::MatchResult& match);
 
 /// The tests every verified loop match passes first, in order: a usable status, a finite pose,
 /// quality and inlier ratio at least these. The first it fails (none when it passes).
-Rejection checkMatch(const MatchResult& match, double min_quality, double min_inlier_ratio);
+Rejection checkMatch(const registration::MatchResult& match, double min_quality,
+                     double min_inlier_ratio);
 
 /// True when keyframe `j` is within `window` keyframes of one already `tried` (it would verify
 /// against nearly the same submap).
@@ -35,7 +36,8 @@ class LoopCloser {
  public:
   /// `submap_voxel`: voxel grid of the candidate's submap (LocalMapParams::voxel); `matcher`
   /// verifies the candidates and must outlive this object.
-  LoopCloser(const LoopClosureParams& params, double submap_voxel, const ScanMatcher& matcher);
+  LoopCloser(const LoopClosureParams& params, double submap_voxel,
+             const registration::ScanMatcher& matcher);
 
   /// Searches loop closures for the newest keyframe (every check_every keyframes, after an
   /// accepted loop every cooldown): each candidate tried is appended to `loops`, an accepted one
@@ -53,8 +55,8 @@ class LoopCloser {
   /// Registers keyframe lc.to against the submap of keyframe lc.from (it and submap_keyframes
   /// neighbours, but not the recent past) from `T_init` (= T_from_to's guess); fills the pose,
   /// quality and inlier ratio of `lc`, and its correction of `T_init`.
-  MatchResult verifyFrom(LoopClosure& lc, const std::vector<Keyframe>& keyframes,
-                         const Isometry3d& T_init, StageTimes& times) const;
+  registration::MatchResult verifyFrom(LoopClosure& lc, const std::vector<Keyframe>& keyframes,
+                                       const Isometry3d& T_init, StageTimes& times) const;
 
  private:
   /// Earlier keyframes at least min_travel behind keyframe `k` along the path and within
@@ -63,15 +65,15 @@ class LoopCloser {
   std::vector<std::pair<double, std::size_t>> candidates(const std::vector<Keyframe>& keyframes,
                                                          std::size_t k, StageTimes& times) const;
   /// verifyFrom the current estimate of the relative pose.
-  MatchResult verify(LoopClosure& lc, const std::vector<Keyframe>& keyframes,
-                     StageTimes& times) const;
+  registration::MatchResult verify(LoopClosure& lc, const std::vector<Keyframe>& keyframes,
+                                   StageTimes& times) const;
   /// The test the verified match fails as a loop closure (none when it is one).
-  Rejection check(const LoopClosure& lc, const MatchResult& r,
+  Rejection check(const LoopClosure& lc, const registration::MatchResult& r,
                   const std::vector<Keyframe>& keyframes) const;
 
   LoopClosureParams params_;
   double submap_voxel_;
-  const ScanMatcher& matcher_;
+  const registration::ScanMatcher& matcher_;
   std::size_t next_search_ = 0;  // keyframe id of the next loop search
 };
 

@@ -9,7 +9,7 @@
 
 namespace obm::frontend {
 
-inline Stage matcherStage(const ScanMatcher& matcher) {
+inline Stage matcherStage(const registration::ScanMatcher& matcher) {
   return matcher.global() ? Stage::Obmnet : Stage::LoopIcp;
 }
 

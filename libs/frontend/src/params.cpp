@@ -195,8 +195,8 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
                   "start_search_axis",
                   "start_search_matcher"});
   TrackingParams p;
-  p.icp = IcpParams::load(node.child("icp"));
-  p.confidence = ConfidenceParams::load(node.child("confidence"));
+  p.icp = registration::IcpParams::load(node.child("icp"));
+  p.confidence = registration::ConfidenceParams::load(node.child("confidence"));
   node.get("min_quality", p.min_quality);
   node.get("max_correction", p.max_correction);
   node.getDegAsRad("max_correction_rotation_deg", p.max_correction_rotation);
@@ -407,10 +407,10 @@ FrontendParams FrontendParams::load(const ConfigNode& node) {
     YAML::Node copy = YAML::Clone(m.yaml());
     if (copy.IsMap() && copy["fallback"]) {
       p.matcher_fallback =
-          parseMatcherKind(m.required<std::string>("fallback"), m.where("fallback"));
+          registration::parseMatcherKind(m.required<std::string>("fallback"), m.where("fallback"));
       copy.remove("fallback");
     }
-    p.matcher = ScanMatcherConfig::load(ConfigNode(copy, m.file(), "matcher"));
+    p.matcher = registration::ScanMatcherConfig::load(ConfigNode(copy, m.file(), "matcher"));
   }
   if (node.has("optimizer")) p.optimizer = backend::Options::load(node.child("optimizer"));
   try {

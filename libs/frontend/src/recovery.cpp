@@ -30,12 +30,12 @@ struct Recovery::Attempt {
   AcceptanceBounds recovered;  ///< a recovered registration
   AcceptanceBounds confirmed;  ///< one taken on a confirmation (second opinion, jump)
   /// The best wide-gate registration that fails only the relative inlier ratio.
-  std::optional<MatchResult> near;
+  std::optional<registration::MatchResult> near;
   /// The last_keyframe step's registration (world frame) and why it was not taken.
-  std::optional<MatchResult> keyframe_match;
+  std::optional<registration::MatchResult> keyframe_match;
   std::string keyframe_why;
 
-  bool take(const MatchResult& match, const std::string& how) {
+  bool take(const registration::MatchResult& match, const std::string& how) {
     fr.match = match;
     fr.status = TrackingStatus::Recovered;
     fr.reason = reason + "; taken: " + how;
@@ -56,8 +56,8 @@ std::vector<std::string> Recovery::stepNames() {
   return names;
 }
 
-Recovery::Recovery(const TrackingParams& params, const IcpMatcher* wide_gate,
-                   const ScanMatcher& matcher)
+Recovery::Recovery(const TrackingParams& params, const registration::IcpMatcher* wide_gate,
+                   const registration::ScanMatcher& matcher)
     : params_(params), wide_gate_(wide_gate), matcher_(matcher) {}
 
 void Recovery::startSweep() {
@@ -117,13 +117,13 @@ bool Recovery::wideGate(Attempt& a) {
   AcceptanceBounds bounds = a.recovered;
   bounds.large_turn_min_inlier_ratio =
       tp.recovery_large_turn_relative_inlier_ratio * in.inlier_reference;
-  MatchResult best;
+  registration::MatchResult best;
   bool found = false;
   std::string why;
   for (double angle : angles) {
     Isometry3d T_start = in.T_guess;
     T_start.linear() = in.T_guess.linear() * expSO3(angle * axis);
-    MatchResult r;
+    registration::MatchResult r;
     {
       TimedStage s(a.times, Stage::Icp);
       r = wide_gate_->match(in.source, in.local_map, T_start);
@@ -158,11 +158,12 @@ bool Recovery::wideGate(Attempt& a) {
 bool Recovery::lastKeyframe(Attempt& a) {
   const RecoveryInput& in = a.in;
   const Keyframe& kf = in.last_keyframe;
-  MatchResult r;
+  registration::MatchResult r;
   {
     TimedStage s(a.times, matcherStage(matcher_));
     if (!last_keyframe_target_)
-      last_keyframe_target_ = std::make_unique<PreparedTarget>(matcher_.prepare(kf.cloud));
+      last_keyframe_target_ =
+          std::make_unique<registration::PreparedTarget>(matcher_.prepare(kf.cloud));
     r = matcher_.match(in.source, *last_keyframe_target_, kf.T_world_sensor.inverse() * in.T_guess);
   }
   r.T_target_source = kf.T_world_sensor * r.T_target_source;
@@ -188,7 +189,7 @@ bool Recovery::lastKeyframe(Attempt& a) {
 /// pose (TrackingParams::recovery_agreement_translation): the wide-gate one is taken.
 bool Recovery::secondOpinion(Attempt& a) {
   if (!a.near || !a.keyframe_match) return false;
-  const MatchResult& r = *a.keyframe_match;
+  const registration::MatchResult& r = *a.keyframe_match;
   if (checkAcceptance(r, a.in.T_guess, a.confirmed).rejected()) return false;
   if (!agree(a.near->T_target_source, r.T_target_source)) return false;
   return a.take(*a.near, "the wide-gate recovery, confirmed by " + matcher_.name() +
@@ -202,7 +203,7 @@ bool Recovery::secondOpinion(Attempt& a) {
 bool Recovery::confirmedJump(Attempt& a) {
   if (!params_.recovery_confirm_jumps || !a.keyframe_match) return false;
   const RecoveryInput& in = a.in;
-  const MatchResult& r = *a.keyframe_match;
+  const registration::MatchResult& r = *a.keyframe_match;
   constexpr double kAny = std::numeric_limits<double>::infinity();
   AcceptanceBounds unbounded = a.confirmed;
   unbounded.max_correction = kAny;

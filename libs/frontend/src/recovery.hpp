@@ -45,7 +45,7 @@ struct JumpCandidate {
 struct RecoveryInput {
   const PointCloud& source;         ///< the preprocessed sweep
   const Isometry3d& T_guess;        ///< its constant-velocity guess
-  const PreparedTarget& local_map;  ///< the map tracking registered against
+  const registration::PreparedTarget& local_map;  ///< the map tracking registered against
   const Keyframe& last_keyframe;
   std::size_t keyframes = 0;               ///< number of keyframes
   Isometry3d last_motion;                  ///< the motion model's last relative motion
@@ -61,7 +61,8 @@ class Recovery {
  public:
   /// `wide_gate`: the tracker's wide-gate ICP (null: no wide_gate step); `matcher`: the scan
   /// matcher of the last_keyframe step. Both must outlive this object.
-  Recovery(const TrackingParams& params, const IcpMatcher* wide_gate, const ScanMatcher& matcher);
+  Recovery(const TrackingParams& params, const registration::IcpMatcher* wide_gate,
+           const registration::ScanMatcher& matcher);
 
   /// Before every registered sweep: the candidate of the sweep before moves to "previous" (only
   /// the next sweep may confirm it).
@@ -101,9 +102,10 @@ class Recovery {
   bool agree(const Isometry3d& T_a, const Isometry3d& T_b) const;
 
   TrackingParams params_;
-  const IcpMatcher* wide_gate_;
-  const ScanMatcher& matcher_;
-  std::unique_ptr<PreparedTarget> last_keyframe_target_;  // lazily, for the last_keyframe step
+  const registration::IcpMatcher* wide_gate_;
+  const registration::ScanMatcher& matcher_;
+  std::unique_ptr<registration::PreparedTarget>
+      last_keyframe_target_;                // lazily, for the last_keyframe step
   std::optional<JumpCandidate> candidate_;  // from this sweep, if any
   std::optional<JumpCandidate> previous_;   // from the sweep before, if any
   std::optional<JumpCandidate> confirmed_;  // set by recover(), taken by the caller

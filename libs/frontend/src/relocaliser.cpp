@@ -87,7 +87,7 @@ std::optional<Relocaliser::Join> Relocaliser::search(const std::vector<Keyframe>
     // The estimate says nothing about where the piece is: the only guess is the descriptor's
     // heading, at the candidate's place.
     const Isometry3d T_init(Eigen::AngleAxisd(c.yaw, Eigen::Vector3d::UnitZ()));
-    const MatchResult r = verifier_.verifyFrom(lc, keyframes, T_init, times);
+    const registration::MatchResult r = verifier_.verifyFrom(lc, keyframes, T_init, times);
     if (const Rejection why = checkMatch(r, params_.min_quality, params_.min_inlier_ratio);
         why.rejected()) {
       lc.rejection = why.kind;

@@ -37,7 +37,7 @@ class Relocaliser {
     Isometry3d T_map_piece = Isometry3d::Identity();
     /// The agreeing verified loops (accepted, relocalisation = true) with their matches, whose
     /// edges join the piece to the map.
-    std::vector<std::pair<LoopClosure, MatchResult>> loops;
+    std::vector<std::pair<LoopClosure, registration::MatchResult>> loops;
   };
 
   /// Tries the newest keyframe of the current piece: every verified candidate is appended to
@@ -51,7 +51,7 @@ class Relocaliser {
   /// A verified match of one keyframe of the piece and the correction it implies.
   struct Hypothesis {
     LoopClosure lc;
-    MatchResult match;
+    registration::MatchResult match;
     Isometry3d T_map_piece;
   };
   /// Keyframes of the map (before the piece, not dropped, not in a lost piece) most similar to

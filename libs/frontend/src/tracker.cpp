@@ -11,11 +11,12 @@
 
 namespace obm::frontend {
 
-Rejection checkAcceptance(const MatchResult& r, const Isometry3d& T_guess,
+Rejection checkAcceptance(const registration::MatchResult& r, const Isometry3d& T_guess,
                           const AcceptanceBounds& bounds) {
   using K = RejectionKind;
-  if (r.status != MatchStatus::Ok && r.status != MatchStatus::NotConverged &&
-      r.status != MatchStatus::Degenerate)
+  if (r.status != registration::MatchStatus::Ok &&
+      r.status != registration::MatchStatus::NotConverged &&
+      r.status != registration::MatchStatus::Degenerate)
     return {K::MatchStatus, std::string("match status ") + toString(r.status) +
                                 (r.message.empty() ? "" : " (" + r.message + ")")};
   if (!r.T_target_source.matrix().allFinite()) return {K::NonFinitePose, "non-finite pose"};
@@ -43,19 +44,20 @@ Rejection checkAcceptance(const MatchResult& r, const Isometry3d& T_guess,
 }
 
 Tracker::Tracker(const TrackingParams& params) : params_(params) {
-  icp_ = std::make_unique<IcpMatcher>(params.icp, params.confidence);
+  icp_ = std::make_unique<registration::IcpMatcher>(params.icp, params.confidence);
   if (params.recovery_gate > 0.0) {
-    IcpParams r = params.icp;
+    registration::IcpParams r = params.icp;
     r.initial_max_correspondence_distance =
         std::max(params.recovery_gate, r.max_correspondence_distance);
     r.max_iterations = std::max(r.max_iterations, 60);
-    wide_gate_ = std::make_unique<IcpMatcher>(r, params.confidence);
+    wide_gate_ = std::make_unique<registration::IcpMatcher>(r, params.confidence);
   }
 }
 
-Rejection Tracker::track(const PointCloud& source, const PreparedTarget& local_map,
-                           const Isometry3d& T_guess, bool have_velocity, MatchResult& match,
-                           StageTimes& times, const Isometry3d* extra_start) {
+Rejection Tracker::track(const PointCloud& source, const registration::PreparedTarget& local_map,
+                         const Isometry3d& T_guess, bool have_velocity,
+                         registration::MatchResult& match, StageTimes& times,
+                         const Isometry3d* extra_start) {
   const TrackingParams& tp = params_;
   const double inl_ref = recentInlierRatio();
   AcceptanceBounds bounds;
@@ -91,9 +93,11 @@ Rejection Tracker::track(const PointCloud& source, const PreparedTarget& local_m
   return reason;
 }
 
-MatchResult Tracker::searchStart(const PointCloud& source, const PreparedTarget& local_map,
-                                 const Isometry3d& T_guess, const AcceptanceBounds& bounds,
-                                 const Isometry3d* extra_start) const {
+registration::MatchResult Tracker::searchStart(const PointCloud& source,
+                                               const registration::PreparedTarget& local_map,
+                                               const Isometry3d& T_guess,
+                                               const AcceptanceBounds& bounds,
+                                               const Isometry3d* extra_start) const {
   std::vector<std::pair<Isometry3d, std::string>> starts;
   const double step = params_.start_search_step;
   const auto k_max = static_cast<int>(std::floor(params_.start_search_range / step + 1e-9));
@@ -106,10 +110,10 @@ MatchResult Tracker::searchStart(const PointCloud& source, const PreparedTarget&
   }
   if (extra_start) starts.emplace_back(*extra_start, "the scan matcher's pose");
 
-  MatchResult best = wide_gate_->match(source, local_map, T_guess);
+  registration::MatchResult best = wide_gate_->match(source, local_map, T_guess);
   bool best_ok = !checkAcceptance(best, T_guess, bounds).rejected();
   for (const auto& [T_start, what] : starts) {
-    MatchResult m = wide_gate_->match(source, local_map, T_start);
+    registration::MatchResult m = wide_gate_->match(source, local_map, T_start);
     const bool ok = !checkAcceptance(m, T_guess, bounds).rejected();
     OBM_LOG_DEBUG("tracker", "start search from " << what << ": inlier ratio " << m.inlier_ratio
                                                   << (ok ? "" : " (rejected)"));

@@ -33,7 +33,7 @@ struct AcceptanceBounds {
 /// fails under `bounds` (none when it passes all): status (ok / not_converged / degenerate
 /// pass), finite pose, quality, inlier ratio, then the correction of the guess (translation,
 /// rotation unless the match qualifies as a large turn).
-Rejection checkAcceptance(const MatchResult& r, const Isometry3d& T_guess,
+Rejection checkAcceptance(const registration::MatchResult& r, const Isometry3d& T_guess,
                           const AcceptanceBounds& bounds);
 
 /// Registers every frame against the local map and keeps the recent inlier ratios the relative
@@ -48,9 +48,9 @@ class Tracker {
   /// last pose and any motion up to the recovery bound is normal: the wide, annealed gate of the
   /// recovery registers (a narrow gate lets a street's ground and facades hold the scan where it
   /// was) and the recovery's correction bounds apply.
-  Rejection track(const PointCloud& source, const PreparedTarget& local_map,
-                    const Isometry3d& T_guess, bool have_velocity, MatchResult& match,
-                    StageTimes& times, const Isometry3d* extra_start = nullptr);
+  Rejection track(const PointCloud& source, const registration::PreparedTarget& local_map,
+                  const Isometry3d& T_guess, bool have_velocity, registration::MatchResult& match,
+                  StageTimes& times, const Isometry3d* extra_start = nullptr);
 
   /// Median inlier ratio of the last accepted frames (0 before the first).
   double recentInlierRatio() const;
@@ -58,21 +58,22 @@ class Tracker {
   void forgetRecentInliers() { recent_inliers_.clear(); }
 
   /// The tracking ICP (its target options are the local map's).
-  const IcpMatcher& icp() const { return *icp_; }
+  const registration::IcpMatcher& icp() const { return *icp_; }
   /// The same ICP with the correspondence gate annealed from TrackingParams::recovery_gate;
   /// null when recovery_gate is 0.
-  const IcpMatcher* wideGate() const { return wide_gate_.get(); }
+  const registration::IcpMatcher* wideGate() const { return wide_gate_.get(); }
 
  private:
   /// The wide-gate ICP from T_guess and from the starts of TrackingParams::start_search_range;
   /// the accepted match (under `bounds`) with the highest inlier ratio, else the best rejected.
-  MatchResult searchStart(const PointCloud& source, const PreparedTarget& local_map,
-                          const Isometry3d& T_guess, const AcceptanceBounds& bounds,
-                          const Isometry3d* extra_start) const;
+  registration::MatchResult searchStart(const PointCloud& source,
+                                        const registration::PreparedTarget& local_map,
+                                        const Isometry3d& T_guess, const AcceptanceBounds& bounds,
+                                        const Isometry3d* extra_start) const;
 
   TrackingParams params_;
-  std::unique_ptr<IcpMatcher> icp_;        // frame → local map
-  std::unique_ptr<IcpMatcher> wide_gate_;  // frame → local map, annealed wide gate
+  std::unique_ptr<registration::IcpMatcher> icp_;        // frame → local map
+  std::unique_ptr<registration::IcpMatcher> wide_gate_;  // frame → local map, annealed wide gate
   std::deque<double> recent_inliers_;      // inlier ratios of the last tracked frames
 };
 

@@ -5,16 +5,16 @@
 
 namespace obm::mrpt_bridge {
 
-MrptScanMatcher::MrptScanMatcher(const ScanMatcherConfig& config)
-    : matcher_(makeScanMatcher(config)) {}
+MrptScanMatcher::MrptScanMatcher(const registration::ScanMatcherConfig& config)
+    : matcher_(registration::makeScanMatcher(config)) {}
 
-MrptScanMatcher::MrptScanMatcher(std::unique_ptr<ScanMatcher> matcher)
+MrptScanMatcher::MrptScanMatcher(std::unique_ptr<registration::ScanMatcher> matcher)
     : matcher_(std::move(matcher)) {
   if (!matcher_) throw ContractError("MrptScanMatcher: no matcher");
 }
 
 namespace {
-MrptScanMatcher::Result finish(MatchResult m) {
+MrptScanMatcher::Result finish(registration::MatchResult m) {
   MrptScanMatcher::Result r;
   r.pose = toPose3DPDFGaussian(m.T_target_source, m.information);
   r.match = std::move(m);

@@ -5,7 +5,7 @@
 #include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
 
-namespace obm {
+namespace obm::obmnet {
 
 ObmNetConfig ObmNetConfig::load(const ConfigNode& node) {
   ObmNetConfig c;
@@ -94,4 +94,4 @@ std::string ObmNetConfig::toYaml() const {
   return std::string(out.c_str()) + "\n";
 }
 
-}  // namespace obm
+}  // namespace obm::obmnet

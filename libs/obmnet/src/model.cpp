@@ -5,7 +5,7 @@
 #include "obm/obmnet/nmm.hpp"
 #include "obm/obmnet/svd.hpp"
 
-namespace obm {
+namespace obm::obmnet {
 
 namespace nn = torch::nn;
 using obmnet::RigidTransforms;
@@ -171,4 +171,4 @@ void ObmNetImpl::seedTrainingNoise(std::uint64_t seed) {
   train_gen_ = at::make_generator<at::CPUGeneratorImpl>(seed);
 }
 
-}  // namespace obm
+}  // namespace obm::obmnet

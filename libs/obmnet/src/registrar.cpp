@@ -12,7 +12,7 @@
 #include "obm/obmnet/data.hpp"
 #include "obm/obmnet/model_io.hpp"
 
-namespace obm {
+namespace obm::obmnet {
 
 struct ObmNetRegistrar::Impl {
   Options opt;
@@ -184,4 +184,4 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
   return r;
 }
 
-}  // namespace obm
+}  // namespace obm::obmnet

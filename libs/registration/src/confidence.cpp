@@ -7,9 +7,9 @@
 
 #include "obm/core/errors.hpp"
 #include "obm/registration/match_result.hpp"
-#include "parallel.hpp"
+#include "obm/core/parallel.hpp"
 
-namespace obm {
+namespace obm::registration {
 namespace {
 
 constexpr std::size_t kChunk = 1024;
@@ -91,8 +91,8 @@ AlignmentStats evaluateAlignment(const std::vector<Vector3f>& source_points,
   const double gate = icp.max_correspondence_distance;
   const double inlier2 = confidence.inlier_threshold * confidence.inlier_threshold;
 
-  std::vector<Partial> partials(detail::numChunks(source_points.size(), kChunk));
-  detail::parallelChunks(
+  std::vector<Partial> partials(numChunks(source_points.size(), kChunk));
+  parallelChunks(
       source_points.size(), kChunk, icp.threads, [&](std::size_t c, std::size_t b, std::size_t e) {
         Partial& P = partials[c];
         for (std::size_t i = b; i < e; ++i) {
@@ -219,4 +219,4 @@ double weakestTranslationSigma(const Matrix6d& information, Eigen::Vector3d* dir
   return std::sqrt(std::max(0.0, tt.eigenvalues()(2)));
 }
 
-}  // namespace obm
+}  // namespace obm::registration

@@ -6,7 +6,7 @@
 #include "obm/core/errors.hpp"
 #include "obm/registration/icp.hpp"
 
-namespace obm {
+namespace obm::registration {
 
 ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   ObmNetMatcherParams p;
@@ -104,4 +104,4 @@ std::unique_ptr<ScanMatcher> makeScanMatcher(const ScanMatcherConfig& config) {
   throw ContractError("makeScanMatcher: invalid MatcherKind");
 }
 
-}  // namespace obm
+}  // namespace obm::registration

@@ -8,9 +8,9 @@
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
 #include "obm/registration/confidence.hpp"
-#include "parallel.hpp"
+#include "obm/core/parallel.hpp"
 
-namespace obm {
+namespace obm::registration {
 namespace {
 
 constexpr std::size_t kChunk = 1024;
@@ -90,8 +90,8 @@ Normal evaluate(const Problem& pb, std::vector<Correspondence>& corr, const Isom
   const double lambda_c = pb.params.color_weight;
   const double c_c = pb.params.color_kernel_scale;
   if (search) corr.assign(pb.src.size(), Correspondence{});
-  std::vector<Normal> partials(detail::numChunks(pb.src.size(), kChunk));
-  detail::parallelChunks(pb.src.size(), kChunk, threads,
+  std::vector<Normal> partials(numChunks(pb.src.size(), kChunk));
+  parallelChunks(pb.src.size(), kChunk, threads,
                          [&](std::size_t ci, std::size_t b, std::size_t e) {
                            Normal& P = partials[ci];
                            for (std::size_t i = b; i < e; ++i) {
@@ -353,4 +353,4 @@ MatchResult IcpMatcher::impl_match(const PointCloud& source, const PreparedTarge
   return result;
 }
 
-}  // namespace obm
+}  // namespace obm::registration

@@ -17,17 +17,17 @@
 #include "obm/obmnet/registrar.hpp"
 #endif
 
-namespace obm {
+namespace obm::registration {
 
 #ifdef OBM_REGISTRATION_HAS_OBMNET
 
 namespace {
 
-ObmNetRegistrar makeRegistrar(const ObmNetMatcherParams& p) {
+obmnet::ObmNetRegistrar makeRegistrar(const ObmNetMatcherParams& p) {
   if (p.model_path.empty()) throw ConfigError("obmnet matcher: model_path is empty");
   if (p.num_points < 0) throw ConfigError("obmnet matcher: num_points must be >= 0");
   if (p.threads < 1) throw ConfigError("obmnet matcher: threads must be >= 1");
-  ObmNetRegistrar::Options o;
+  obmnet::ObmNetRegistrar::Options o;
   o.model_path = p.model_path;
   o.num_points = p.num_points;
   o.threads = p.threads;
@@ -35,7 +35,7 @@ ObmNetRegistrar makeRegistrar(const ObmNetMatcherParams& p) {
   o.denoise_neighbors = p.denoise_neighbors;
   o.soft_sampling = p.soft_sampling;
   o.yaw_hypotheses = p.yaw_hypotheses;
-  return ObmNetRegistrar(o);
+  return obmnet::ObmNetRegistrar(o);
 }
 
 /// The network stage shared by both matchers.
@@ -48,11 +48,11 @@ struct NetworkStage {
   std::vector<double> prior;      ///< w_i·(1 + α·m_i): the network's SVD weights (docs/model.md)
 };
 
-NetworkStage runNetwork(const ObmNetRegistrar& reg, const ObmNetMatcherParams& p,
+NetworkStage runNetwork(const obmnet::ObmNetRegistrar& reg, const ObmNetMatcherParams& p,
                         const PointCloud& source, const PreparedTarget& target,
                         const Isometry3d& T_init) {
   NetworkStage s;
-  RegistrationResult r;
+  obmnet::RegistrationResult r;
   try {
     if (p.pre_align) {
       // Network sees the source already moved by the guess; its output is the correction ΔT.
@@ -140,7 +140,7 @@ MatchResult networkFailure(const NetworkStage& s, const Isometry3d& T_init) {
 
 struct ObmNetMatcher::Impl {
   ObmNetMatcherParams params;
-  ObmNetRegistrar registrar;
+  obmnet::ObmNetRegistrar registrar;
 };
 
 ObmNetMatcher::ObmNetMatcher(const ObmNetMatcherParams& params, const IcpParams& icp,
@@ -166,7 +166,7 @@ MatchResult ObmNetMatcher::impl_match(const PointCloud& source, const PreparedTa
 
 struct ObmNetIcpMatcher::Impl {
   ObmNetMatcherParams params;
-  ObmNetRegistrar registrar;
+  obmnet::ObmNetRegistrar registrar;
 };
 
 ObmNetIcpMatcher::ObmNetIcpMatcher(const ObmNetMatcherParams& params, const IcpParams& icp,
@@ -243,7 +243,7 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
 
 struct ObmmIcpMatcher::Impl {
   ObmNetMatcherParams params;
-  ObmNetRegistrar registrar;
+  obmnet::ObmNetRegistrar registrar;
 };
 
 ObmmIcpMatcher::ObmmIcpMatcher(const ObmNetMatcherParams& params, const IcpParams& icp,
@@ -278,7 +278,7 @@ MatchResult ObmmIcpMatcher::impl_match(const PointCloud& source, const PreparedT
 
 struct OverlapPredictor::Impl {
   ObmNetMatcherParams params;
-  ObmNetRegistrar registrar;
+  obmnet::ObmNetRegistrar registrar;
 };
 
 OverlapPredictor::OverlapPredictor(const ObmNetMatcherParams& params)
@@ -288,7 +288,7 @@ OverlapPredictor::~OverlapPredictor() = default;
 
 OverlapPrediction OverlapPredictor::predict(const PointCloud& source,
                                             const PointCloud& target) const {
-  auto weightsOf = [](const RegistrationResult& r, std::vector<double>& w) {
+  auto weightsOf = [](const obmnet::RegistrationResult& r, std::vector<double>& w) {
     w.resize(r.inlier_weights.size());
     for (std::size_t i = 0; i < w.size(); ++i) {
       const double m = i < r.overlap_membership.size()
@@ -298,8 +298,8 @@ OverlapPrediction OverlapPredictor::predict(const PointCloud& source,
     }
   };
   OverlapPrediction out;
-  const RegistrationResult a = impl_->registrar.align(source, target);
-  const RegistrationResult b = impl_->registrar.align(target, source);
+  const obmnet::RegistrationResult a = impl_->registrar.align(source, target);
+  const obmnet::RegistrationResult b = impl_->registrar.align(target, source);
   out.source_points = a.source_sampled.points;
   out.target_points = b.source_sampled.points;
   weightsOf(a, out.source_weights);
@@ -379,4 +379,4 @@ bool obmNetAvailable() noexcept {
 #endif
 }
 
-}  // namespace obm
+}  // namespace obm::registration

@@ -5,7 +5,7 @@
 #include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
 
-namespace obm {
+namespace obm::registration {
 namespace {
 
 void check(bool ok, const std::string& what) {
@@ -146,4 +146,4 @@ std::string toString(IcpSolver solver) {
   return solver == IcpSolver::GaussNewton ? "gauss_newton" : "levenberg_marquardt";
 }
 
-}  // namespace obm
+}  // namespace obm::registration

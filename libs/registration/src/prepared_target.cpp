@@ -7,9 +7,9 @@
 
 #include "obm/core/cloud_ops.hpp"
 #include "obm/core/errors.hpp"
-#include "parallel.hpp"
+#include "obm/core/parallel.hpp"
 
-namespace obm {
+namespace obm::registration {
 namespace {
 
 /// nanoflann's dataset adaptor over the prepared cloud's points.
@@ -96,7 +96,7 @@ PreparedTarget::PreparedTarget(const PointCloud& target, const Options& options)
   // PCA normals: eigenvector of the smallest eigenvalue of the k-neighbourhood covariance.
   const std::size_t k =
       std::min<std::size_t>(static_cast<std::size_t>(options.normal_neighbors), n);
-  detail::parallelChunks(n, 1024, options.threads, [&](std::size_t, std::size_t b, std::size_t e) {
+  parallelChunks(n, 1024, options.threads, [&](std::size_t, std::size_t b, std::size_t e) {
     std::vector<std::size_t> idx(k);
     std::vector<float> d2(k);
     for (std::size_t i = b; i < e; ++i) {
@@ -211,4 +211,4 @@ std::size_t PreparedTarget::knn(const Vector3f& query, std::size_t k,
   return found;
 }
 
-}  // namespace obm
+}  // namespace obm::registration

@@ -4,7 +4,7 @@
 
 #include "obm/core/errors.hpp"
 
-namespace obm {
+namespace obm::registration {
 
 double robustWeight(RobustKernel kernel, double r, double c) {
   const double a = std::abs(r);
@@ -81,4 +81,4 @@ std::string toString(RobustKernel kernel) {
   return "none";
 }
 
-}  // namespace obm
+}  // namespace obm::registration

@@ -6,7 +6,7 @@
 #include "obm/core/errors.hpp"
 #include "obm/core/timer.hpp"
 
-namespace obm {
+namespace obm::registration {
 namespace {
 
 bool allFinite(const PointCloud& c) {
@@ -86,4 +86,4 @@ MatchResult ScanMatcher::match(const PointCloud& source, const PreparedTarget& t
   return r;
 }
 
-}  // namespace obm
+}  // namespace obm::registration

@@ -7,7 +7,7 @@
 #include "obm/core/errors.hpp"
 #include "obm/core/se3.hpp"
 #include "obm/sim/random.hpp"
-#include "parallel.hpp"
+#include "obm/core/parallel.hpp"
 
 namespace obm::sim {
 
@@ -185,7 +185,7 @@ LidarSweep LidarSimulator::simulate(const RaycastScene& scene, const PoseAtTime&
   const double cos_full = std::cos(P.grazing_full_deg * kDegToRad);
   const double r10 = P.range_at_10pct;
 
-  detail::parallelFor(n_tasks, P.threads, [&](std::size_t task) {
+  parallelFor(n_tasks, P.threads, [&](std::size_t task) {
     Rng rng(hashSeed(seed, 0x11da5, task));
     ChunkOut& o = out[task];
     const std::size_t c0 = task * kColumnsPerTask, c1 = std::min(nc, c0 + kColumnsPerTask);

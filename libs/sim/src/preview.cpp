@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "obm/io/rgbd.hpp"
-#include "parallel.hpp"
+#include "obm/core/parallel.hpp"
 
 namespace obm::sim {
 
@@ -56,7 +56,7 @@ RgbImage renderTopView(const RaycastScene& scene, const Eigen::AlignedBox3d& reg
   RgbImage im(W, H, 255);
   const Eigen::Vector3f light = Eigen::Vector3f(-0.4f, 0.5f, 0.77f).normalized();
   const double zlo = region.min().z(), zhi = std::max(region.max().z(), zlo + 1.0);
-  detail::parallelFor(static_cast<std::size_t>(H), threads, [&](std::size_t row) {
+  parallelFor(static_cast<std::size_t>(H), threads, [&](std::size_t row) {
     std::vector<Eigen::Vector3f> o(static_cast<std::size_t>(W)),
         d(static_cast<std::size_t>(W), Eigen::Vector3f(0, 0, -1));
     const double y = region.max().y() - (static_cast<double>(row) + 0.5) * res;

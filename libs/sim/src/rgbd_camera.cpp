@@ -7,7 +7,7 @@
 #include "obm/core/errors.hpp"
 #include "obm/core/se3.hpp"
 #include "obm/sim/random.hpp"
-#include "parallel.hpp"
+#include "obm/core/parallel.hpp"
 
 namespace obm::sim {
 
@@ -187,7 +187,7 @@ DepthFrame RgbdSimulator::render(const RaycastScene& scene, const Eigen::Isometr
   const int tiles_x = (P.width + kTile - 1) / kTile;
   const int tile_rows = (P.height + kTile - 1) / kTile;
 
-  detail::parallelFor(static_cast<std::size_t>(tile_rows), P.threads, [&](std::size_t tr) {
+  parallelFor(static_cast<std::size_t>(tile_rows), P.threads, [&](std::size_t tr) {
     Rng rng(hashSeed(seed, 0x4b1d, tr));
     Rng crng(hashSeed(seed, 0xc010, tr));  // colour noise: the depth's draws stay as they were
     RayPacket16 pk;

@@ -275,8 +275,8 @@ RunSummary MappingApp::run() {
     // The following frame is read while this one is processed (unless it will not be used).
     if (options_.max_frames == 0 || n + 1 < options_.max_frames) reader.prefetch();
     const frontend::FrameResult r = fe.process(cloud);
-    frame_rows.push_back({r.match.quality, r.match.inlier_ratio, r.match.rmse,
-                          r.match.conditioning, weakestTranslationSigma(r.match.information),
+    frame_rows.push_back({r.match.quality, r.match.inlier_ratio, r.match.rmse, r.match.conditioning,
+                          registration::weakestTranslationSigma(r.match.information),
                           r.preprocess.points_in, r.preprocess.points_out, r.reason});
     ++n;
     if (r.keyframe && mapper && r.keyframe_id % cfg.output.map_every == 0) {

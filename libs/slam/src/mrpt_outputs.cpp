@@ -20,7 +20,8 @@ void writeMrptOutputs(const frontend::Frontend& fe, const std::vector<Isometry3d
   std::map<std::size_t, Matrix6d> info_of;
   const backend::PoseGraph graph = fe.graph();
   for (const auto& e : graph.edges3)
-    if (!e.is_loop && e.to == e.from + 1) info_of[e.to] = informationG2oToTheta(e.information);
+    if (!e.is_loop && e.to == e.from + 1)
+      info_of[e.to] = registration::informationG2oToTheta(e.information);
   std::vector<mrpt_bridge::ExportKeyframe> out;
   out.reserve(kfs.size());
   for (const auto& kf : kfs) {

@@ -57,7 +57,7 @@ struct FrameResult {
   bool restarted = false;       ///< the local map restarted at this frame (after a bridge run)
   std::size_t keyframe_id = 0;  ///< keyframe the pose is attached to
   Isometry3d T_world_sensor = Isometry3d::Identity();  ///< estimate right after processing
-  MatchResult match;               ///< the accepted (or last tried) tracking match
+  registration::MatchResult match;  ///< the accepted (or last tried) tracking match
   std::size_t loops_accepted = 0;  ///< loop closures accepted at this frame
   PreprocessStats preprocess;      ///< points kept / dropped
 };
@@ -116,7 +116,7 @@ struct FrontendStats {
 
 /// Which matcher the front-end uses for loop verification and recovery.
 struct MatcherChoice {
-  ScanMatcherConfig config;  ///< what will be built
+  registration::ScanMatcherConfig config;  ///< what will be built
   bool fell_back = false;    ///< the configured OBMNet model was missing and the fallback is used
   std::string message;       ///< one line for the log ("matcher: icp (model ... not found)")
 };
@@ -131,7 +131,7 @@ class Frontend {
   /// Builds the matchers (chooseMatcher; a corrupt model throws FormatError naming the file).
   explicit Frontend(const FrontendParams& params);
   /// With a given loop / recovery matcher (tests, tools).
-  Frontend(const FrontendParams& params, std::unique_ptr<ScanMatcher> matcher);
+  Frontend(const FrontendParams& params, std::unique_ptr<registration::ScanMatcher> matcher);
   ~Frontend();
   Frontend(const Frontend&) = delete;
   Frontend& operator=(const Frontend&) = delete;

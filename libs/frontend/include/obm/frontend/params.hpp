@@ -84,8 +84,8 @@ struct LocalMapParams {
 
 /// Frame-to-local-map tracking and what happens when it fails (YAML `tracking:`).
 struct TrackingParams {
-  IcpParams icp;                ///< the scan-to-local-map point-to-plane ICP (YAML `icp:`)
-  ConfidenceParams confidence;  ///< its confidence model (YAML `confidence:`)
+  registration::IcpParams icp;  ///< the scan-to-local-map point-to-plane ICP (YAML `icp:`)
+  registration::ConfidenceParams confidence;  ///< its confidence model (YAML `confidence:`)
   /// A match is accepted when its status is ok / not_converged / degenerate, its quality is at
   /// least this, and it corrects the constant-velocity guess by at most the bounds below. [0, 1]
   double min_quality = 0.3;
@@ -299,10 +299,10 @@ struct FrontendParams {
   LoopClosureParams loop_closure;
   /// The scan matcher of loop-closure verification and recovery (YAML `matcher:`, the keys of
   /// obm::ScanMatcherConfig plus `fallback`).
-  ScanMatcherConfig matcher;
+  registration::ScanMatcherConfig matcher;
   /// Matcher used instead when `matcher.type` runs the network and its model file does not exist
   /// (none: a missing model is an error).
-  std::optional<MatcherKind> matcher_fallback;
+  std::optional<registration::MatcherKind> matcher_fallback;
   backend::Options optimizer;  ///< pose-graph optimiser (YAML `optimizer:`, see config/graph.yaml)
 
   /// Reads the sections `preprocess`, `keyframes`, `local_map`, `tracking`, `loop_closure`,

@@ -8,18 +8,18 @@ namespace obm::frontend {
 
 /// The acceptance test a registration (tracking, recovery, loop closure, relocalisation) failed.
 enum class RejectionKind {
-  None,                ///< accepted
-  NoSweep,             ///< the frame gave no usable sweep (too few points, or none yet)
-  MatchStatus,         ///< the matcher failed (status other than ok / not converged)
-  NonFinitePose,       ///< the pose has NaN or infinite entries
-  Quality,             ///< MatchResult::quality below the bound
-  InlierRatio,         ///< inlier ratio below the (absolute or relative) bound
-  TranslationJump,     ///< tracking: too far from the constant-velocity guess
-  RotationJump,        ///< tracking: turned too far from the constant-velocity guess
-  DescriptorDistance,  ///< loop: the place descriptors differ too much
-  LoopCorrection,      ///< loop: the verified pose moves the estimate too far
-  LoopRotationCorrection,  ///< loop: the verified pose turns the estimate too far
-  NotConfirmed,        ///< relocalisation: the next keyframes did not agree (yet)
+  None,                       ///< accepted
+  NoSweep,                    ///< the frame gave no usable sweep (too few points, or none yet)
+  MatchStatus,                ///< the matcher failed (status other than ok / not converged)
+  NonFinitePose,              ///< the pose has NaN or infinite entries
+  Quality,                    ///< MatchResult::quality below the bound
+  InlierRatio,                ///< inlier ratio below the (absolute or relative) bound
+  TranslationJump,            ///< tracking: too far from the constant-velocity guess
+  RotationJump,               ///< tracking: turned too far from the constant-velocity guess
+  DescriptorDistance,         ///< loop: the place descriptors differ too much
+  LoopCorrection,             ///< loop: the verified pose moves the estimate too far
+  LoopRotationCorrection,     ///< loop: the verified pose turns the estimate too far
+  NotConfirmed,               ///< relocalisation: the next keyframes did not agree (yet)
 };
 
 /// "none", "no_sweep", "match_status", "non_finite_pose", "quality", "inlier_ratio",

@@ -26,9 +26,9 @@ namespace obm::mrpt_bridge {
 class MrptScanMatcher {
  public:
   /// The matcher `config` describes (makeScanMatcher: loads the model for the OBMNet types).
-  explicit MrptScanMatcher(const ScanMatcherConfig& config);
+  explicit MrptScanMatcher(const registration::ScanMatcherConfig& config);
   /// Wraps an existing matcher.
-  explicit MrptScanMatcher(std::unique_ptr<ScanMatcher> matcher);
+  explicit MrptScanMatcher(std::unique_ptr<registration::ScanMatcher> matcher);
 
   struct Result {
     /// Mean: the pose of m2 in m1's frame (T_m1_m2, i.e. T_target_source with target = m1);
@@ -36,7 +36,7 @@ class MrptScanMatcher {
     mrpt::poses::CPose3DPDFGaussian pose;
     /// Everything the matcher reports: status, inlier ratio, fitness, quality, the network's
     /// bias α and confidence, the information matrix in obmslam's convention.
-    MatchResult match;
+    registration::MatchResult match;
   };
 
   /// Registers point map m2 onto m1, starting from `initial` (the pose of m2 in m1; identity when
@@ -48,10 +48,10 @@ class MrptScanMatcher {
   Result align(const mrpt::obs::CObservation& o1, const mrpt::obs::CObservation& o2,
                const mrpt::poses::CPose3D& initial = mrpt::poses::CPose3D()) const;
 
-  const ScanMatcher& matcher() const { return *matcher_; }
+  const registration::ScanMatcher& matcher() const { return *matcher_; }
 
  private:
-  std::unique_ptr<ScanMatcher> matcher_;
+  std::unique_ptr<registration::ScanMatcher> matcher_;
 };
 
 }  // namespace obm::mrpt_bridge

@@ -9,6 +9,9 @@
 namespace obm {
 
 class ConfigNode;
+}  // namespace obm
+
+namespace obm::obmnet {
 
 /// Hyper-parameters of OBMNet. Distances are in the units of the (normalised) input clouds.
 struct ObmNetConfig {
@@ -89,4 +92,4 @@ struct ObmNetConfig {
   std::string toYaml() const;
 };
 
-}  // namespace obm
+}  // namespace obm::obmnet

@@ -10,7 +10,7 @@
 #include "obm/obmnet/config.hpp"
 #include "obm/obmnet/modules.hpp"
 
-namespace obm {
+namespace obm::obmnet {
 
 /// Outputs of one forward pass. (R, t) is T_target_source: q ≈ R·p + t.
 struct ObmNetOutput {
@@ -67,4 +67,4 @@ class ObmNetImpl : public torch::nn::Module {
 };
 TORCH_MODULE(ObmNet);
 
-}  // namespace obm
+}  // namespace obm::obmnet

@@ -11,7 +11,7 @@
 #include "obm/core/point_cloud.hpp"
 #include "obm/core/se3.hpp"
 
-namespace obm {
+namespace obm::obmnet {
 
 /// Result of one OBMNet registration.
 struct RegistrationResult {
@@ -82,4 +82,4 @@ class ObmNetRegistrar {
   std::unique_ptr<Impl> impl_;
 };
 
-}  // namespace obm
+}  // namespace obm::obmnet

@@ -11,7 +11,7 @@
 #include "obm/registration/params.hpp"
 #include "obm/registration/prepared_target.hpp"
 
-namespace obm {
+namespace obm::registration {
 
 /// Residual statistics of source points against a prepared target at a pose.
 struct AlignmentStats {
@@ -61,4 +61,4 @@ double matchQuality(double inlier_ratio, double rmse, double overlap, double con
 /// direction in the source frame. +∞ for a singular or non-finite Ω.
 double weakestTranslationSigma(const Matrix6d& information, Eigen::Vector3d* direction = nullptr);
 
-}  // namespace obm
+}  // namespace obm::registration

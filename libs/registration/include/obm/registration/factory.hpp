@@ -16,15 +16,17 @@
 #include "obm/registration/scan_matcher.hpp"
 
 namespace obm {
-
 class ConfigNode;
+}  // namespace obm
+
+namespace obm::registration {
 
 /// The scan matchers the factory builds (YAML `type`, obm-map's `--matcher`).
 enum class MatcherKind {
-  Icp,        ///< "icp": ICP from the guess
-  ObmNet,     ///< "obmnet": the network alone
-  ObmNetIcp,  ///< "obmnet+icp": the network's pose refined by ICP
-  ObmmIcp,    ///< "obmm+icp": ICP weighted by the Overlap Bias Matching Module
+  Icp,             ///< "icp": ICP from the guess
+  ObmNet,          ///< "obmnet": the network alone
+  ObmNetIcp,       ///< "obmnet+icp": the network's pose refined by ICP
+  ObmmIcp,         ///< "obmm+icp": ICP weighted by the Overlap Bias Matching Module
 };
 
 /// The YAML name of `kind` ("icp", "obmnet", "obmnet+icp", "obmm+icp").
@@ -50,4 +52,4 @@ struct ScanMatcherConfig {
 /// Builds the matcher `config.type` names (loads the model for the OBMNet types).
 std::unique_ptr<ScanMatcher> makeScanMatcher(const ScanMatcherConfig& config);
 
-}  // namespace obm
+}  // namespace obm::registration

@@ -11,7 +11,7 @@
 #include "obm/registration/confidence.hpp"
 #include "obm/registration/scan_matcher.hpp"
 
-namespace obm {
+namespace obm::registration {
 
 /// The bare ICP iterations (no confidence), for matchers that refine another estimate.
 struct IcpOutcome {
@@ -72,4 +72,4 @@ void applyConfidence(MatchResult& result, const AlignmentStats& all_stats,
                      const AlignmentStats& info_stats, bool set_overlap, const IcpParams& icp,
                      const ConfidenceParams& confidence);
 
-}  // namespace obm
+}  // namespace obm::registration

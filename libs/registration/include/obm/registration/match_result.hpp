@@ -15,7 +15,7 @@
 
 #include "obm/core/se3.hpp"
 
-namespace obm {
+namespace obm::registration {
 
 /// Outcome class of a match. Everything but Ok is an expected failure, reported, not thrown.
 enum class MatchStatus {
@@ -81,4 +81,4 @@ Matrix6d informationThetaToG2o(const Matrix6d& omega_theta);
 /// Inverse of informationThetaToG2o: Ω_θ = J⁻ᵀ·Ω_q·J⁻¹.
 Matrix6d informationG2oToTheta(const Matrix6d& omega_q);
 
-}  // namespace obm
+}  // namespace obm::registration

@@ -12,8 +12,10 @@
 #include "obm/registration/scan_matcher.hpp"
 
 namespace obm {
-
 class ConfigNode;
+}  // namespace obm
+
+namespace obm::registration {
 
 /// Settings of the network stage.
 struct ObmNetMatcherParams {
@@ -138,4 +140,4 @@ class OverlapPredictor {
   std::unique_ptr<Impl> impl_;
 };
 
-}  // namespace obm
+}  // namespace obm::registration

@@ -11,8 +11,10 @@
 #include "obm/registration/robust_kernel.hpp"
 
 namespace obm {
-
 class ConfigNode;
+}  // namespace obm
+
+namespace obm::registration {
 
 /// Residual of one correspondence.
 enum class IcpMetric {
@@ -125,4 +127,4 @@ std::string toString(IcpMetric metric);
 IcpSolver parseIcpSolver(const std::string& name, const std::string& where = "solver");
 std::string toString(IcpSolver solver);
 
-}  // namespace obm
+}  // namespace obm::registration

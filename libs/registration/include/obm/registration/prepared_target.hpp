@@ -12,8 +12,10 @@
 #include "obm/core/point_cloud.hpp"
 
 namespace obm {
-
 class ConfigNode;
+}  // namespace obm
+
+namespace obm::registration {
 
 /// How a PreparedTarget is built (also PreparedTarget::Options).
 struct PreparedTargetOptions {
@@ -86,4 +88,4 @@ class PreparedTarget {
   std::unique_ptr<Impl> impl_;
 };
 
-}  // namespace obm
+}  // namespace obm::registration

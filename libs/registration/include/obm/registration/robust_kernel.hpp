@@ -7,7 +7,7 @@
 /// a correspondence starts to be down-weighted.
 #include <string>
 
-namespace obm {
+namespace obm::registration {
 
 /// Robust kernel of the ICP cost.
 enum class RobustKernel {
@@ -31,4 +31,4 @@ RobustKernel parseRobustKernel(const std::string& name, const std::string& where
 /// The name parseRobustKernel accepts.
 std::string toString(RobustKernel kernel);
 
-}  // namespace obm
+}  // namespace obm::registration

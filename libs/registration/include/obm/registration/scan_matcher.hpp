@@ -12,7 +12,7 @@
 #include "obm/registration/params.hpp"
 #include "obm/registration/prepared_target.hpp"
 
-namespace obm {
+namespace obm::registration {
 
 class ScanMatcher {
  public:
@@ -56,4 +56,4 @@ class ScanMatcher {
   ConfidenceParams confidence_;
 };
 
-}  // namespace obm
+}  // namespace obm::registration

@@ -1,7 +1,8 @@
 #pragma once
-// Private: a minimal parallel-for over independent tasks with std::thread. Tasks are claimed from
-// an atomic counter; results must be written per task (not per thread) so that the output is
-// identical for any thread count. The first exception is re-thrown in the caller.
+/// \file parallel.hpp
+/// The project's one parallel loop over independent tasks (std::thread, no pool). Tasks are
+/// claimed from an atomic counter; a task writes its result into its own slot, so the output does
+/// not depend on the thread count. The first exception is re-thrown in the caller.
 #include <algorithm>
 #include <atomic>
 #include <cstddef>
@@ -10,14 +11,17 @@
 #include <thread>
 #include <vector>
 
-namespace obm::sim::detail {
+namespace obm {
 
+/// `requested` threads, or the hardware's when `requested` <= 0 (at least 1).
 inline int resolveThreads(int requested) {
   if (requested > 0) return requested;
   const unsigned hw = std::thread::hardware_concurrency();
   return hw == 0 ? 1 : static_cast<int>(hw);
 }
 
+/// Calls task(i) for every i in [0, n_tasks) on up to resolveThreads(threads) threads (the
+/// caller's thread is one of them).
 template <typename F>
 void parallelFor(std::size_t n_tasks, int threads, F&& task) {
   const int nt = static_cast<int>(std::min<std::size_t>(
@@ -51,4 +55,17 @@ void parallelFor(std::size_t n_tasks, int threads, F&& task) {
   if (error) std::rethrow_exception(error);
 }
 
-}  // namespace obm::sim::detail
+/// Number of chunks of `chunk` indices that cover [0, n).
+inline std::size_t numChunks(std::size_t n, std::size_t chunk) { return (n + chunk - 1) / chunk; }
+
+/// Deterministic chunked loop for reductions: [0, n) is cut into chunks of `chunk` indices (a size
+/// independent of the thread count) and fn(chunk_index, begin, end) is called for each, on up to
+/// `threads` threads (<= 0: one). Summing per-chunk partial results in chunk order gives
+/// bit-identical totals for 1 or N threads.
+template <typename Fn>
+void parallelChunks(std::size_t n, std::size_t chunk, int threads, Fn&& fn) {
+  parallelFor(numChunks(n, chunk), std::max(1, threads),
+              [&](std::size_t c) { fn(c, c * chunk, std::min(n, (c + 1) * chunk)); });
+}
+
+}  // namespace obm
