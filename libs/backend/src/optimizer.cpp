@@ -24,6 +24,7 @@
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
 #include "obm/core/timer.hpp"
+#include "robust_solve.hpp"
 
 namespace obm::backend {
 namespace {
@@ -432,50 +433,23 @@ struct Optimizer::Impl {
     s.num_nodes = graph.numNodes();
     s.num_edges = graph.numEdges();
 
-    // Initial guesses to try. Normally one; in a robust mode with the chordal default and
-    // robust_init = best, three starts whose solutions compete on the robust objective.
-    enum class Start { AsIs, File, Spanning, Chordal, RobustChordal };
-    std::vector<Start> starts{Start::AsIs};
-    const bool robust = opt.loop_loss.kind != LossKind::None;
+    // Initial guesses to try (robust_solve.cpp): the configured initialisation on the first
+    // solve, the current poses after.
+    const std::vector<Start> starts = chooseStarts(opt, !initialized);
     if (!initialized) {
       s.init = opt.init;
-      starts = {opt.init == InitMethod::File       ? Start::File
-                : opt.init == InitMethod::Spanning ? Start::Spanning
-                                                   : Start::Chordal};
-      if (opt.init == InitMethod::Chordal && robust) {
-        switch (opt.robust_init) {
-          case Options::RobustInit::Odometry:
-            starts = {Start::Spanning};
-            break;
-          case Options::RobustInit::Chordal:
-            starts = {Start::Chordal};
-            break;
-          case Options::RobustInit::RobustChordal:
-            starts = {Start::RobustChordal};
-            break;
-          case Options::RobustInit::Best:
-            starts = {Start::RobustChordal, Start::Spanning, Start::Chordal};
-            break;
-        }
-      }
       initialized = true;
     }
-    // `dcs:auto`: Φ is the 99 % quantile of a correct edge's χ² under the graph's own noise
-    // level. Datasets' information matrices are often off by orders of magnitude (parking-garage's
-    // edges have χ² ≈ 2·10⁻⁴ at the optimum instead of ≈ dof), which a fixed Φ cannot know. The
-    // scale ŝ = median χ² of the loop edges / median χ²(dof) is measured at the robust solution
-    // (the median ignores the wrong loops as long as most loops are right), Φ = ŝ·χ²_0.99(dof), and
-    // the graph is solved again until Φ settles (at most 4 rounds).
+    // The loop loss's Φ. `dcs:auto` starts by trusting the information matrices (Φ = χ²_0.99 of
+    // the edge's degrees of freedom) and is calibrated by RobustSolve.
     const bool auto_dcs_mode = opt.loop_loss.kind == LossKind::Dcs && opt.loop_loss.scale <= 0.0;
-    const double chi2_q99 = graph.is3D() ? 16.8119 : 11.3449;     // χ²_0.99(6), χ²_0.99(3)
-    const double chi2_median = graph.is3D() ? 5.34812 : 2.36597;  // medians of χ²(6), χ²(3)
     if (auto_dcs_mode) {
-      auto_phi = chi2_q99;  // round 1 trusts the information matrices
+      auto_phi = chi2Quantile99(graph.is3D());
       if (auto_dcs) auto_dcs->setPhi(auto_phi);
     }
-    double phi = opt.loop_loss.kind == LossKind::Dcs
-                     ? (auto_dcs_mode ? auto_phi : opt.loop_loss.scale)
-                     : opt.loop_loss.scale * opt.loop_loss.scale;
+    const double phi = opt.loop_loss.kind == LossKind::Dcs
+                           ? (auto_dcs_mode ? auto_phi : opt.loop_loss.scale)
+                           : opt.loop_loss.scale * opt.loop_loss.scale;
 
     syncProblem();
     const bool plain_least_squares = edges_with_loss == 0;
@@ -534,155 +508,26 @@ struct Optimizer::Impl {
     CallbackAdapter cb(s.per_iteration, callback);
     so.callbacks.push_back(&cb);
 
-    const PoseGraph start_graph = starts.size() > 1 || auto_dcs_mode ? graph : PoseGraph{};
-    const std::vector<Start> first_starts = starts;
-    PoseGraph best_graph;
-    double best_cost = std::numeric_limits<double>::infinity();
-    std::string best_name;
-    // DCS: whether most loop edges are active (χ² ≤ 3Φ, i.e. DCS scale s ≥ 1/2) in the current
-    // poses. Like the median calibration of `dcs:auto`, the robust mode assumes most loops are
-    // right; a start that switches most of them off wins on the robust objective only because the
-    // odometry then fits exactly (kitti_05 at the calibrated Φ = 0.12: every loop off, the
-    // odometry-only poses), so such a solution is taken only when no start keeps most loops.
-    auto mostLoopsActive = [&]() {
-      if (opt.loop_loss.kind != LossKind::Dcs) return true;
-      std::size_t loops = 0, off = 0;
-      auto count = [&](const auto& edges) {
-        for (const auto& e : edges)
-          if (e.is_loop) {
-            ++loops;
-            off += edgeChi2(graph, e) > 3.0 * phi ? 1 : 0;
-          }
-      };
-      if (graph.is3D())
-        count(graph.edges3);
-      else
-        count(graph.edges2);
-      return 2 * off <= loops;
+    auto solve_once = [&]() {
+      posesToBlocks();
+      ceres::Solver::Summary cs;
+      ceres::Solve(so, problem.get(), &cs);
+      blocksToPoses();
+      OBM_LOG_DEBUG(kLog, cs.FullReport());
+      SolveOutcome o;
+      o.usable = cs.IsSolutionUsable();
+      o.converged = cs.termination_type == ceres::CONVERGENCE;
+      o.initial_cost = cs.initial_cost;
+      o.final_cost = cs.final_cost;
+      o.iterations = cs.num_successful_steps + cs.num_unsuccessful_steps;
+      o.message = cs.message;
+      return o;
     };
-    bool best_active = false;
-    // Solves from each start in `list` (from the start graph, except an AsIs start, which
-    // continues from the current poses) and keeps the lowest robust objective in `graph`;
-    // `incumbent` = the current poses already compete with cost best_cost.
-    auto solveStarts = [&](const std::vector<Start>& list, bool incumbent) {
-      const bool compete = list.size() > 1 || incumbent;
-      if (incumbent) {
-        best_graph = graph;
-        best_active = mostLoopsActive();
-      }
-      for (std::size_t k = 0; k < list.size(); ++k) {
-        if (list[k] != Start::AsIs && (k > 0 || incumbent)) graph = start_graph;
-        Timer init_timer;
-        const char* name = "as given";
-        switch (list[k]) {
-          case Start::AsIs:
-            break;
-          case Start::File:
-            name = "file";
-            break;
-          case Start::Spanning:
-            name = "odometry spanning tree";
-            initialize(graph, InitMethod::Spanning);
-            break;
-          case Start::Chordal:
-            name = "chordal";
-            initialize(graph, InitMethod::Chordal);
-            break;
-          case Start::RobustChordal:
-            name = "re-weighted chordal";
-            initializeRobustChordal(graph, phi);
-            break;
-        }
-        s.init_time_s += init_timer.seconds();
-        // Without loss functions Ceres's initial cost is ½·Σ‖W·e‖² = ½·χ² (WᵀW = Ω), evaluated
-        // anyway; with them it is the robustified cost, so χ² is evaluated separately.
-        const double init_chi2_direct = plain_least_squares ? 0.0 : chi2(graph);
-        Timer solve_timer;
-        posesToBlocks();
-        ceres::Solver::Summary cs;
-        ceres::Solve(so, problem.get(), &cs);
-        blocksToPoses();
-        const double init_chi2 = plain_least_squares ? 2.0 * cs.initial_cost : init_chi2_direct;
-        s.solve_time_s += solve_timer.seconds();
-        s.iterations += cs.num_successful_steps + cs.num_unsuccessful_steps;
-        if (!cs.IsSolutionUsable())
-          OBM_LOG_WARN(kLog, "solver failed from the " << name << " start: " << cs.message);
-        OBM_LOG_DEBUG(kLog, cs.FullReport());
-        if (compete)
-          OBM_LOG_INFO(kLog, "robust start '" << name << "': objective " << 2.0 * cs.final_cost
-                                              << ", chi2 " << chi2(graph));
-        const bool active = compete ? mostLoopsActive() : true;
-        if (compete && !active)
-          OBM_LOG_INFO(kLog, "robust start '" << name << "' switches most loop edges off");
-        const bool better = best_name.empty() || (active && !best_active) ||
-                            (active == best_active && 2.0 * cs.final_cost < best_cost);
-        if (cs.IsSolutionUsable() && better) {
-          best_cost = 2.0 * cs.final_cost;
-          best_active = active;
-          best_name = name;
-          s.init_chi2 = init_chi2;
-          s.converged = cs.termination_type == ceres::CONVERGENCE;
-          s.usable = true;
-          s.message = cs.message;
-          if (compete) best_graph = graph;
-        }
-      }
-      if (compete && !best_name.empty()) {
-        graph = best_graph;
-        s.message = "best of " + std::to_string(list.size() + (incumbent ? 1 : 0)) +
-                    " starts: " + best_name + "; " + s.message;
-      }
+    auto set_phi = [&](double value) {
+      auto_phi = value;
+      if (auto_dcs) auto_dcs->setPhi(value);
     };
-
-    const int rounds = auto_dcs_mode ? 8 : 1;
-    bool graduated = false;
-    for (int round = 0; round < rounds; ++round) {
-      if (round > 0) {
-        // Re-calibrate Φ on the residuals of the best solution so far (see above).
-        // Loop edges only: with the loops switched off the odometry chain fits exactly, so the
-        // odometry residuals would shrink Φ towards 0 round after round.
-        std::vector<double> e2;
-        if (graph.is3D()) {
-          for (const auto& e : graph.edges3)
-            if (e.is_loop) e2.push_back(edgeChi2(graph, e));
-        } else {
-          for (const auto& e : graph.edges2)
-            if (e.is_loop) e2.push_back(edgeChi2(graph, e));
-        }
-        if (e2.empty()) break;  // nothing to calibrate on (and nothing for DCS to act on)
-        std::nth_element(e2.begin(), e2.begin() + std::ptrdiff_t(e2.size() / 2), e2.end());
-        const double scale = std::max(e2[e2.size() / 2] / chi2_median, 1e-12);
-        const double next = scale * chi2_q99;
-        OBM_LOG_INFO(kLog, "dcs:auto round " << round << ": median edge chi2 " << e2[e2.size() / 2]
-                                             << ", phi " << phi << " -> " << next);
-        if (std::abs(std::log(next / phi)) < std::log(1.5)) break;  // settled
-        // Graduated: Φ shrinks by at most 10× per round, each round warm-started from the last
-        // solution (graduated non-convexity). Dropping Φ at once to a small calibrated value
-        // makes "all loops switched off" the cheapest state from any start whose loops are not
-        // yet closed (ais2klinik: the odometry start won with every loop off).
-        phi = auto_phi = std::max(next, phi / 10.0);
-        if (auto_dcs) auto_dcs->setPhi(phi);
-        best_cost = std::numeric_limits<double>::infinity();
-        best_name.clear();
-        graduated = true;
-        solveStarts({Start::AsIs}, false);
-      } else {
-        solveStarts(starts, false);
-      }
-    }  // rounds of dcs:auto
-    if (graduated && !best_name.empty()) {
-      // The graduated path starts from the first round's solution; where that one was dragged
-      // far by wrong loops (information understating the precision 10⁴-fold, as on
-      // parking-garage, lets every wrong loop in at the first Φ), fresh starts at the final Φ do
-      // better. Both are solutions at the same Φ: the lower robust objective wins.
-      best_name = "graduated";
-      solveStarts(first_starts, true);
-    }
-    if (auto_dcs_mode) {
-      s.message = "dcs:auto phi " + std::to_string(phi) + "; " + s.message;
-      s.dcs_phi = phi;
-    }
-    if (best_name.empty()) s.message = "solver failed";
+    RobustSolve(graph, opt, plain_least_squares, solve_once, set_phi, s).run(starts, phi);
     s.time_s = total.seconds();
     s.final_chi2 = chi2(graph);
     return s;
