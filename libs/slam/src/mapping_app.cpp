@@ -13,6 +13,7 @@
 
 #include "map_worker.hpp"
 #include "mrpt_outputs.hpp"
+#include "run_outputs.hpp"
 #include "run_report.hpp"
 #include "obm/backend/graph_io.hpp"
 #include "obm/core/atomic_file.hpp"
@@ -50,16 +51,6 @@ io::FrameStreamOptions streamOptions(const InputParams& p, const std::string& gr
   return o;
 }
 
-/// The text of a double-quoted CSV field: quotes doubled.
-std::string csvQuoted(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    if (c == '"') out += '"';
-    out += c;
-  }
-  return out;
-}
-
 constexpr const char* kLog = "obm-map";
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
@@ -67,11 +58,6 @@ double processCpuSeconds() {
   timespec ts{};
   clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
-
-/// JSON number, or null for NaN / infinity (JSON has no NaN).
-nlohmann::json num(double v) {
-  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();
 }
 
 /// Fails early (before any frame is processed) when the output folder cannot be written.
@@ -239,11 +225,6 @@ RunSummary MappingApp::run() {
   Timer since_start;
   std::size_t n = 0;
   Isometry3d T_up_sensor = Isometry3d::Identity();
-  struct FrameRow {
-    double quality, inlier_ratio, rmse, conditioning, weakest_sigma;
-    std::size_t points_in, points_used;
-    std::string reason;
-  };
   std::vector<FrameRow> frame_rows;
   const io::KittiCalib* calib = source->kittiCalib();
   // The two trajectories as the run ends writes them (every frame, the current estimates).
@@ -275,9 +256,7 @@ RunSummary MappingApp::run() {
     // The following frame is read while this one is processed (unless it will not be used).
     if (options_.max_frames == 0 || n + 1 < options_.max_frames) reader.prefetch();
     const frontend::FrameResult r = fe.process(cloud);
-    frame_rows.push_back({r.match.quality, r.match.inlier_ratio, r.match.rmse, r.match.conditioning,
-                          registration::weakestTranslationSigma(r.match.information),
-                          r.preprocess.points_in, r.preprocess.points_out, r.reason});
+    frame_rows.push_back(frameRow(r));
     ++n;
     if (r.keyframe && mapper && r.keyframe_id % cfg.output.map_every == 0) {
       frontend::TimedStage s(app_times, frontend::Stage::OctomapQueue);
@@ -322,113 +301,23 @@ RunSummary MappingApp::run() {
     io::writeTumTrajectory(file("keyframes_tum.txt"), kfs);
   }
   backend::writeG2o(fe.graph(), file("graph.g2o"));
-  {
-    const auto statuses = fe.statuses();
-    const auto kf_of = fe.frameKeyframes();
-    std::ostringstream os;
-    os << "# frame,timestamp,status,keyframe_id,is_keyframe,quality,inlier_ratio,rmse_m,"
-          "points_in,points_used,conditioning,weakest_sigma_m,reason\n";
-    std::vector<bool> is_kf(traj.size(), false);
-    for (const auto& kf : fe.keyframes())
-      if (kf.frame_index < is_kf.size()) is_kf[kf.frame_index] = true;
-    os << std::setprecision(17);
-    for (std::size_t i = 0; i < traj.size(); ++i)
-      os << i << ',' << stamps[i] << ',' << frontend::toString(statuses[i]) << ',' << kf_of[i]
-         << ',' << (is_kf[i] ? 1 : 0) << ',' << std::setprecision(6) << frame_rows[i].quality << ','
-         << frame_rows[i].inlier_ratio << ',' << frame_rows[i].rmse << ','
-         << frame_rows[i].points_in << ',' << frame_rows[i].points_used << ','
-         << frame_rows[i].conditioning << ',' << frame_rows[i].weakest_sigma << ",\""
-         << csvQuoted(frame_rows[i].reason) << '"' << std::setprecision(17) << '\n';
-    writeTextAtomically(file("frames.csv"), os.str());
-  }
-  {
-    std::ostringstream os;
-    os << "# from_keyframe,to_keyframe,from_frame,to_frame,accepted,quality,inlier_ratio,"
-          "descriptor_distance,correction_m,tx,ty,tz,qx,qy,qz,qw,relocalisation,reason\n";
-    for (const auto& lc : fe.loops()) {
-      const Eigen::Quaterniond q(lc.T_from_to.linear());
-      const Eigen::Vector3d t = lc.T_from_to.translation();
-      os << lc.from << ',' << lc.to << ',' << fe.keyframes()[lc.from].frame_index << ','
-         << fe.keyframes()[lc.to].frame_index << ',' << (lc.accepted ? 1 : 0) << ',' << lc.quality
-         << ',' << lc.inlier_ratio << ',' << lc.descriptor_distance << ',' << lc.correction << ','
-         << t.x() << ',' << t.y() << ',' << t.z() << ',' << q.x() << ',' << q.y() << ',' << q.z()
-         << ',' << q.w() << ',' << (lc.relocalisation ? 1 : 0) << ",\"" << csvQuoted(lc.reason)
-         << "\"\n";
-    }
-    writeTextAtomically(file("loops.csv"), os.str());
-  }
+  writeTextAtomically(file("frames.csv"), framesCsv(fe, traj, stamps, frame_rows));
+  writeTextAtomically(file("loops.csv"), loopsCsv(fe));
 
   // Ground truth and metrics.
   const io::FrameGroundTruth gt = source->groundTruth(stamps, cfg.input.max_time_difference);
   sum.ground_truth = gt.path;
-  std::vector<Isometry3d> gt_plot;  // ground truth in the estimate's world frame, for the picture
-  std::vector<double> ate_errors, ate_distance;  // per evaluated frame, for the report
+  AlignedGroundTruth gt_aligned;  // for the pictures
   if (!gt.path.empty()) {
     sum.metrics = computeMetrics(traj, gt, calib);
     std::vector<std::size_t> keyframe_frames;
     for (const auto& kf : fe.keyframes()) keyframe_frames.push_back(kf.frame_index);
     scoreLoops(fe.loops(), keyframe_frames, gt.T_world_body, *sum.metrics);
-    eval::PoseList est, ref;
-    for (std::size_t i = 0; i < traj.size() && i < gt.T_world_body.size(); ++i)
-      if (gt.T_world_body[i]) {
-        est.push_back(traj[i]);
-        ref.push_back(*gt.T_world_body[i]);
-      }
-    if (est.size() >= 3) {
-      const auto ate = eval::absoluteTrajectoryError(ref, est, eval::Alignment::SE3);
-      Isometry3d T_gt_est = Isometry3d::Identity();
-      T_gt_est.linear() = ate.alignment.R;
-      T_gt_est.translation() = ate.alignment.t;
-      for (const auto& T : ref) gt_plot.push_back(T_gt_est.inverse() * T);
-      ate_errors = ate.errors;
-      double d = 0.0;
-      for (std::size_t i = 0; i < ref.size(); ++i) {
-        if (i > 0) d += (ref[i].translation() - ref[i - 1].translation()).norm();
-        ate_distance.push_back(d);
-      }
-    }
+    gt_aligned = alignGroundTruth(traj, gt);
   }
-  nlohmann::json metrics_json, timing_json;
-  {
-    nlohmann::json j;
-    const TrajectoryMetrics m = sum.metrics.value_or(TrajectoryMetrics{});
-    const bool have = sum.metrics.has_value();
-    j["t_err_percent"] = have ? num(m.t_err_percent) : nlohmann::json();
-    j["r_err_deg_per_100m"] = have ? num(m.r_err_deg_per_100m) : nlohmann::json();
-    j["ate_rmse_m"] = have ? num(m.ate_rmse_m) : nlohmann::json();
-    j["ate_mean_m"] = have ? num(m.ate_mean_m) : nlohmann::json();
-    j["ate_max_m"] = have ? num(m.ate_max_m) : nlohmann::json();
-    j["rpe_trans_rmse_m"] = have ? num(m.rpe_trans_rmse_m) : nlohmann::json();
-    j["rpe_rot_rmse_deg"] = have ? num(m.rpe_rot_rmse_deg) : nlohmann::json();
-    j["kitti_segments"] = m.kitti_segments;
-    j["frames_evaluated"] = m.frames_evaluated;
-    j["ground_truth_length_m"] = have ? num(m.length_m) : nlohmann::json();
-    j["evaluation_frame"] = have ? nlohmann::json(m.frame) : nlohmann::json();
-    j["ground_truth"] = gt.path.empty() ? nlohmann::json() : nlohmann::json(gt.path);
-    j["loops_accepted"] = st.loops_accepted;
-    j["loops_rejected"] = st.loops_rejected;
-    j["loops_checked"] = m.loops_checked;
-    j["loops_wrong"] = m.loops_wrong;
-    j["loop_error_max_m"] = have ? num(m.loop_error_max_m) : nlohmann::json();
-    j["loop_error_max_deg"] = have ? num(m.loop_error_max_deg) : nlohmann::json();
-    j["loop_candidates"] = st.loop_candidates;
-    j["frames"] = n;
-    j["keyframes"] = st.keyframes;
-    j["keyframes_dropped"] = st.keyframes_dropped;
-    j["relocalisations"] = st.relocalisations;
-    j["frames_tracked"] = st.tracked;
-    j["frames_recovered"] = st.recovered;
-    j["frames_bridged"] = st.bridged;
-    j["map_restarts"] = st.restarts;
-    j["unusable_sweeps"] = st.empty_sweeps;
-    j["read_errors"] = source->readErrors();
-    j["matcher"] = sum.matcher;
-    j["input"] = options_.input;
-    j["input_kind"] = sum.input_kind;
-    j["interrupted"] = sum.interrupted;
-    writeTextAtomically(file("metrics.json"), j.dump(2) + "\n");
-    metrics_json = j;
-  }
+  const std::vector<Isometry3d>& gt_plot = gt_aligned.T_world_body;
+  const nlohmann::json metrics_json = metricsJson(sum, gt, source->readErrors(), options_.input);
+  writeTextAtomically(file("metrics.json"), metrics_json.dump(2) + "\n");
 
   // Map.
   double map_shift = 0.0, map_shift_deg = 0.0;
@@ -477,52 +366,20 @@ RunSummary MappingApp::run() {
   for (const StageTimes* times : {&fe.times(), static_cast<const StageTimes*>(&app_times)})
     for (const auto& [stage, e] : times->entries()) sum.stages_ms[stage] += e.total_ms;
   for (const char* s : {"obmnet", "icp", "graph", "octomap"}) sum.stages_ms.emplace(s, 0.0);
-  {
-    nlohmann::json j;
-    j["frames"] = n;
-    j["keyframes"] = st.keyframes;
-    j["wall_s"] = sum.wall_s;
-    j["frames_per_second"] = sum.frames_per_second;
-    j["processing_s"] = process_s;
-    j["processing_frames_per_second"] = process_s > 0 ? static_cast<double>(n) / process_s : 0.0;
-    j["cpu_s"] = processCpuSeconds() - cpu0;
-    nlohmann::json stages;
-    for (const auto& [stage, ms] : sum.stages_ms) stages[stage] = ms;
-    j["stages_ms"] = stages;
-    nlohmann::json per_frame;
-    for (const auto& [stage, ms] : sum.stages_ms)
-      per_frame[stage] = n > 0 ? ms / static_cast<double>(n) : 0.0;
-    j["per_frame_ms"] = per_frame;
-    j["map_rebuilt"] = sum.map_rebuilt;
-    j["map_max_keyframe_shift_m"] = map_shift;
-    j["map_max_keyframe_shift_deg"] = map_shift_deg;
-    j["hardware_threads"] = std::thread::hardware_concurrency();
-    writeTextAtomically(file("timing.json"), j.dump(2) + "\n");
-    timing_json = j;
-  }
+  RunTimes times;
+  times.processing_s = process_s;
+  times.cpu_s = processCpuSeconds() - cpu0;
+  times.map_shift_m = map_shift;
+  times.map_shift_deg = map_shift_deg;
+  const nlohmann::json timing_json = timingJson(sum, times);
+  writeTextAtomically(file("timing.json"), timing_json.dump(2) + "\n");
   // The page of the run (after timing.json, which it shows): report.html and the SVG top view.
   if (cfg.output.pictures && !traj.empty()) {
-    RunReport rep;
-    rep.title = options_.input;
-    auto xy = [&](const Isometry3d& T) {
-      const Eigen::Vector3d p = T_up_sensor * T.translation();
-      return Eigen::Vector2d(p.x(), p.y());
-    };
-    for (const auto& T : traj) rep.estimate.push_back(xy(T));
-    for (const auto& T : gt_plot) rep.reference.push_back(xy(T));
-    for (const auto& lc : fe.loops())
-      if (lc.accepted)
-        rep.loops.emplace_back(fe.keyframes()[lc.from].frame_index,
-                               fe.keyframes()[lc.to].frame_index);
-    rep.error_m = ate_errors;
-    rep.distance_m = ate_distance;
-    rep.metrics = metrics_json;
-    rep.timing = timing_json;
-    std::map<std::string, int> counts;
-    for (const auto s : fe.statuses()) ++counts[frontend::toString(s)];
-    for (const auto& [k, c] : counts) rep.status_counts.emplace_back(k, c);
+    std::vector<std::string> pictures;
     for (const char* png : {"trajectory_topview.png", "map_topview.png"})
-      if (fs::exists(out / png)) rep.pictures.emplace_back(png);
+      if (fs::exists(out / png)) pictures.emplace_back(png);
+    const RunReport rep = runReport(fe, traj, gt_aligned, T_up_sensor, options_.input,
+                                    metrics_json, timing_json, std::move(pictures));
     writeTextAtomically(file("trajectory_topview.svg"), trajectorySvg(rep));
     writeTextAtomically(file("report.html"), reportHtml(rep));
   }
