@@ -37,10 +37,14 @@ std::vector<std::string> splitList(const std::string& s) {
 }
 
 /// `soft_sampling`: −1 = as the model file says, 0 = one-hot, 1 = relaxed overlap draws (--sampling).
+/// `keep_start`: the network's start competes with its poses on their fitness
+/// (ObmNetRegistrar::Options::keep_start_if_fitter), the `obmnet+verify` row.
 bench::Method obmnetMethod(const std::string& name, const std::string& model, int threads,
-                           int num_points, int denoise, int soft_sampling) {
+                           int num_points, int denoise, int soft_sampling,
+                           bool keep_start = false) {
   obmnet::ObmNetRegistrar::Options o{model, num_points, threads, 0, denoise};
   o.soft_sampling = soft_sampling;
+  o.keep_start_if_fitter = keep_start;
   auto reg = std::make_shared<obmnet::ObmNetRegistrar>(o);
   return {name, [reg](const PointCloud& s, const PointCloud& t) {
             const obmnet::RegistrationResult r = reg->align(s, t);
@@ -452,6 +456,12 @@ int main(int argc, char** argv) {
         methods.push_back(obmnetMethod(m, m, threads, num_points, denoise, soft_sampling));
     } else {
       methods.push_back(obmnetMethod("obmnet", model, threads, num_points, denoise, soft_sampling));
+      // The network verified against its start (the identity of the pair as given): meaningful
+      // where the start is a prior (consecutive sweeps), so listed by default for the kitti
+      // protocol and on request elsewhere.
+      if (protocol == "kitti" || !methods_arg.empty())
+        methods.push_back(
+            obmnetMethod("obmnet+verify", model, threads, num_points, denoise, soft_sampling, true));
       // One matcher of each kind (one model load), shared by the rows that use it.
       const auto net_icp =
           obmnetIcpMatcher(model, threads, num_points, denoise, soft_sampling, unit, polish, overlap_keep);

@@ -369,3 +369,60 @@ TEST(Registrar, AlignsAndReportsDiagnostics) {
   tiny.points.resize(3, Vector3f::Zero());
   EXPECT_THROW(reg.align(tiny, tgt), ContractError);
 }
+
+TEST(Registrar, KeepsItsStartWhenTheStartIsFitterThanTheNetwork) {
+  // An untrained network on a pair whose true pose is the identity (the target is half of the
+  // source, both about one centre): its pose is worse than not moving, and with
+  // keep_start_if_fitter the registrar must notice it by its own fitness and return the start.
+  const std::string dir = obm::test::scratchDir("obmnet_registrar_start");
+  obmnet::ObmNetConfig c;
+  c.emb_dims = 16;
+  c.n_samples = 8;
+  c.n_iters = 2;
+  c.shared_centroid = true;  // the start is the identity of the clouds as given
+  obmnet::ObmNet net(c);
+  ModelMeta meta;
+  meta.num_points = 96;
+  saveModel(dir + "/m.pt", net, meta);
+  const auto src = sphereCloud(300, 11);
+  PointCloud tgt;
+  for (const auto& p : src.points)
+    if (p.x() > -0.2f) tgt.points.push_back(p);
+  obmnet::ObmNetRegistrar::Options o{dir + "/m.pt", 0, 1, 0};
+  const auto plain = obmnet::ObmNetRegistrar(o).align(src, tgt);
+  o.keep_start_if_fitter = true;
+  const auto verified = obmnet::ObmNetRegistrar(o).align(src, tgt);
+  EXPECT_FALSE(plain.kept_start);
+  ASSERT_TRUE(verified.kept_start) << "network fitness " << plain.fitness;
+  EXPECT_GT(verified.fitness, plain.fitness);
+  EXPECT_TRUE(verified.T_target_source.isApprox(Isometry3d::Identity(), 1e-9));
+  EXPECT_FALSE(plain.T_target_source.isApprox(Isometry3d::Identity(), 1e-3));
+}
+
+TEST(Registrar, ModelTrainedWithoutTheRoadCutsItAtInference) {
+  // model.ground_band: the registrar drops the ground plane's returns before sampling, and the
+  // reported source indices still point at the input points the network saw.
+  const std::string dir = obm::test::scratchDir("obmnet_registrar_ground");
+  obmnet::ObmNetConfig c;
+  c.emb_dims = 16;
+  c.n_samples = 8;
+  c.n_iters = 1;
+  c.ground_band = 0.3;
+  obmnet::ObmNet net(c);
+  ModelMeta meta;
+  meta.num_points = 96;
+  saveModel(dir + "/m.pt", net, meta);
+  PointCloud scan = sphereCloud(300, 3);  // the unit sphere around the sensor...
+  std::mt19937_64 rng(4);
+  std::uniform_real_distribution<float> u(-10.f, 10.f);
+  for (int i = 0; i < 2000; ++i) scan.points.emplace_back(u(rng), u(rng), -1.7f);  // ...and a road
+  obmnet::ObmNetRegistrar reg({dir + "/m.pt", 0, 1, 0});
+  const auto r = reg.align(scan, scan);
+  ASSERT_EQ(r.source_sampled.size(), 96u);
+  ASSERT_EQ(r.source_indices.size(), 96u);
+  for (std::size_t i = 0; i < r.source_indices.size(); ++i) {
+    EXPECT_LT(r.source_indices[i], 300u) << "a road point was sampled";
+    EXPECT_EQ(r.source_sampled.points[i], scan.points[r.source_indices[i]]);
+  }
+  for (const auto& p : r.target_sampled.points) EXPECT_GT(p.z(), -1.4f);
+}

@@ -141,6 +141,20 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
   std::nth_element(spacing.begin(), spacing.begin() + static_cast<std::ptrdiff_t>(M / 2),
                    spacing.end());
   const float gate2 = 4.0f * spacing[M / 2];
+  auto fitness = [&](const Isometry3d& T) {
+    const Eigen::Matrix3f Rf = T.linear().cast<float>();
+    const Eigen::Vector3f tf = T.translation().cast<float>();
+    std::size_t in = 0;
+    for (const auto& p : src.points) {
+      const Eigen::Vector3f q = Rf * p + tf;
+      for (const auto& y : tgt.points)
+        if ((q - y).squaredNorm() <= gate2) {
+          ++in;
+          break;
+        }
+    }
+    return static_cast<double>(in) / static_cast<double>(std::max<std::size_t>(1, src.size()));
+  };
   int best = 0;
   double best_fit = -1.0;
   std::vector<Isometry3d> T_hat(static_cast<std::size_t>(H));
@@ -154,18 +168,7 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
         makeIsometry(orthonormalize(Rm), Eigen::Vector3d(t[0].item<double>(), t[1].item<double>(),
                                                          t[2].item<double>())) *
         turn(Rz[static_cast<std::size_t>(h)]);
-    const Eigen::Matrix3f Rf = T_hat[static_cast<std::size_t>(h)].linear().cast<float>();
-    const Eigen::Vector3f tf = T_hat[static_cast<std::size_t>(h)].translation().cast<float>();
-    std::size_t in = 0;
-    for (const auto& p : src.points) {
-      const Eigen::Vector3f q = Rf * p + tf;
-      for (const auto& y : tgt.points)
-        if ((q - y).squaredNorm() <= gate2) {
-          ++in;
-          break;
-        }
-    }
-    const double fit = static_cast<double>(in) / static_cast<double>(std::max<std::size_t>(1, src.size()));
+    const double fit = fitness(T_hat[static_cast<std::size_t>(h)]);
     if (fit > best_fit) {
       best_fit = fit;
       best = h;
@@ -174,6 +177,15 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
   r.T_target_source = norm.denormalize(T_hat[static_cast<std::size_t>(best)]);
   r.fitness = best_fit;
   r.hypothesis_yaw_deg = 360.0 * best / H;
+  if (impl_->opt.keep_start_if_fitter) {
+    const double start_fit = fitness(Isometry3d::Identity());
+    if (start_fit > best_fit) {
+      r.T_target_source = norm.denormalize(Isometry3d::Identity());
+      r.fitness = start_fit;
+      r.hypothesis_yaw_deg = 0.0;
+      r.kept_start = true;
+    }
+  }
   r.alpha = o.alpha[best].item<double>();
   r.overlap = o.overlap[best].item<double>();
   const auto w = o.weights[best].contiguous();

@@ -34,6 +34,10 @@ struct RegistrationResult {
   double fitness = 0.0;
   /// Yaw of the hypothesis the returned pose started from [deg] (0 with a single hypothesis).
   double hypothesis_yaw_deg = 0.0;
+  /// With Options::keep_start_if_fitter: the network's poses were all less fit than its start
+  /// (the pose it was given: the identity of the clouds as passed, after the pair
+  /// normalisation), which is returned instead.
+  bool kept_start = false;
 };
 
 /// Registers point clouds with a trained OBMNet model.
@@ -59,6 +63,11 @@ class ObmNetRegistrar {
     /// (ObmNetConfig::soft_inference_sampling), 0 = one-hot draws, 1 = the relaxed draws of
     /// training.
     int soft_sampling = -1;
+    /// Verify the network against its start: the start is scored by the same `fitness` as the
+    /// yaw hypotheses and returned when it is fitter than every one of them. The network then
+    /// never moves a pair further from a good guess than its own score allows (consecutive
+    /// sweeps, where not moving is often closer than the network's estimate).
+    bool keep_start_if_fitter = false;
   };
 
   /// Loads the model. A missing, corrupt or mismatched file throws IoError / FormatError naming it.
