@@ -3,6 +3,7 @@
 # table: executions, coverage, crashes. Docs: docs/benchmarks.md, "Fuzzing".
 #
 #   scripts/fuzz.sh [SECONDS_PER_TARGET=60] [TARGETS="ply pcd off_obj kitti trajectories png jpeg hdf5 rawlog graph yaml"]
+#   scripts/fuzz.sh runs:N [TARGETS]   # N executions per target (e.g. runs:10000000), timed
 #   scripts/fuzz.sh ci        # CI: a fixed number of runs from the seeds alone, fixed seed
 #                             # (deterministic: a clean run here is a clean run in CI)
 #
@@ -84,7 +85,14 @@ for t in $TARGETS; do
   # (Zero-filling such a string takes seconds under ASan: rawlogs get a longer per-input timeout.)
   limit=(-rss_limit_mb=2048 -malloc_limit_mb=2048 -timeout=10)
   [[ $t == rawlog ]] && limit=(-rss_limit_mb=6144 -malloc_limit_mb=4608 -timeout=60)
-  if [[ $SECS == ci ]]; then budget=(-runs=3000 -seed=1); else budget=(-max_total_time="$SECS"); fi
+  if [[ $SECS == ci ]]; then
+    budget=(-runs=3000 -seed=1)
+  elif [[ $SECS == runs:* ]]; then
+    budget=(-runs="${SECS#runs:}")
+  else
+    budget=(-max_total_time="$SECS")
+  fi
+  started=$SECONDS
   set +e
   # allocator_may_return_null=1: a request beyond what can be mapped returns NULL, as glibc's
   # malloc does outside the sanitizer (HDF5 sizes metadata cache entries from the file and handles
@@ -101,7 +109,7 @@ for t in $TARGETS; do
   corpus=$(ls "$C/$t" | wc -l)
   # libFuzzer's own artifacts of a finding (slow-unit-* files are only reports of slow inputs).
   crashes=$(find "$BUILD/findings/$t" -name 'crash-*' -o -name 'leak-*' -o -name 'timeout-*' -o -name 'oom-*' | wc -l)
-  printf '| %s | %s | %s | %s | %s | %s | %s |\n' "$t" "$SECS" "${execs:-?}" "${rate:-?}" "${cov:-?}" "$corpus" "$crashes" >> "$BUILD/table.md"
+  printf '| %s | %s | %s | %s | %s | %s | %s |\n' "$t" "$((SECONDS - started))" "${execs:-?}" "${rate:-?}" "${cov:-?}" "$corpus" "$crashes" >> "$BUILD/table.md"
   if (( rc != 0 || crashes > 0 )); then
     status=1
     echo "[fuzz] $t: FINDING (exit $rc) — $log" >&2
