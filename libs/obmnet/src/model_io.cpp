@@ -1,5 +1,7 @@
 #include "obm/obmnet/model_io.hpp"
 
+#include <cmath>
+
 #include <filesystem>
 #include <sstream>
 
@@ -47,6 +49,10 @@ ObmNet loadModel(const std::string& path, ModelMeta* meta) {
     throw FormatError(
         path, 0,
         std::string("not a readable LibTorch archive (") + e.what_without_backtrace() + ")");
+  } catch (const std::exception& e) {
+    // A damaged TorchScript section of the archive: LibTorch's parser reports it with its own
+    // exception types (torch::jit::ErrorReport), not c10::Error.
+    throw FormatError(path, 0, std::string("not a readable LibTorch archive (") + e.what() + ")");
   }
   auto readString = [&](const char* key) {
     c10::IValue v;
@@ -69,6 +75,11 @@ ObmNet loadModel(const std::string& path, ModelMeta* meta) {
   if (archive.try_read("normalize_radius", v) && v.isDouble()) m.normalize_radius = v.toDouble();
   if (archive.try_read("num_points", v) && v.isInt()) m.num_points = static_cast<int>(v.toInt());
   if (archive.try_read("description", v) && v.isString()) m.description = v.toStringRef();
+  if (!(m.normalize_radius > 0.0) || !std::isfinite(m.normalize_radius))
+    throw FormatError(path, 0, "normalize_radius " + std::to_string(m.normalize_radius) +
+                                   " is not a positive number");
+  if (m.num_points < 1)
+    throw FormatError(path, 0, "num_points " + std::to_string(m.num_points) + " is not >= 1");
   ObmNet model(cfg);
   try {
     model->load(archive);
@@ -76,6 +87,10 @@ ObmNet loadModel(const std::string& path, ModelMeta* meta) {
     throw FormatError(path, 0,
                       std::string("weights do not match the embedded configuration (") +
                           e.what_without_backtrace() + ")");
+  } catch (const std::exception& e) {
+    throw FormatError(path, 0,
+                      std::string("weights do not match the embedded configuration (") +
+                          e.what() + ")");
   }
   model->eval();
   if (meta) *meta = m;
