@@ -57,6 +57,19 @@ obmnet::ObmNet saveSmallModel(const std::string& path, std::uint64_t seed, int n
   return net;
 }
 
+/// An untrained model for the registrar tests, written to DIR/m.pt: `c` at width 16 with 8 overlap
+/// draws, 96 points per cloud, weights drawn from `seed`.
+std::string saveRegistrarModel(const std::string& dir, obmnet::ObmNetConfig c, std::uint64_t seed) {
+  c.emb_dims = 16;
+  c.n_samples = 8;
+  torch::manual_seed(seed);
+  obmnet::ObmNet net(c);
+  ModelMeta meta;
+  meta.num_points = 96;
+  saveModel(dir + "/m.pt", net, meta);
+  return dir + "/m.pt";
+}
+
 }  // namespace
 
 TEST(PairProtocol, CleanPairIsExactlyTheTransformedSource) {
@@ -341,16 +354,10 @@ TEST(Trainer, WarmStartNeedsTheSameLayerShapesOnly) {
 }
 
 TEST(Registrar, AlignsAndReportsDiagnostics) {
-  const std::string dir = obm::test::scratchDir("obmnet_registrar");
   obmnet::ObmNetConfig c;
-  c.emb_dims = 16;
-  c.n_samples = 8;
   c.n_iters = 2;
-  obmnet::ObmNet net(c);
-  ModelMeta meta;
-  meta.num_points = 96;
-  saveModel(dir + "/m.pt", net, meta);
-  obmnet::ObmNetRegistrar reg({dir + "/m.pt", 0, 1, 0});
+  const std::string model = saveRegistrarModel(obm::test::scratchDir("obmnet_registrar"), c, 1);
+  obmnet::ObmNetRegistrar reg({model, 0, 1, 0});
   EXPECT_EQ(reg.numPoints(), 96);
   const auto src = sphereCloud(300, 11);
   PointCloud tgt = src;
@@ -374,24 +381,17 @@ TEST(Registrar, KeepsItsStartWhenTheStartIsFitterThanTheNetwork) {
   // An untrained network on a pair whose true pose is the identity (the target is half of the
   // source, both about one centre): its pose is worse than not moving, and with
   // keep_start_if_fitter the registrar must notice it by its own fitness and return the start.
-  const std::string dir = obm::test::scratchDir("obmnet_registrar_start");
   obmnet::ObmNetConfig c;
-  c.emb_dims = 16;
-  c.n_samples = 8;
   c.n_iters = 2;
   c.shared_centroid = true;  // the start is the identity of the clouds as given
-  // The untrained weights are drawn from LibTorch's global generator: seeded, so the network's
-  // (poor) pose does not depend on the tests that ran before.
-  torch::manual_seed(2);
-  obmnet::ObmNet net(c);
-  ModelMeta meta;
-  meta.num_points = 96;
-  saveModel(dir + "/m.pt", net, meta);
+  // Seeded weights: the network's (poor) pose does not depend on the tests that ran before.
+  const std::string model =
+      saveRegistrarModel(obm::test::scratchDir("obmnet_registrar_start"), c, 2);
   const auto src = sphereCloud(300, 11);
   PointCloud tgt;
   for (const auto& p : src.points)
     if (p.x() > -0.2f) tgt.points.push_back(p);
-  obmnet::ObmNetRegistrar::Options o{dir + "/m.pt", 0, 1, 0};
+  obmnet::ObmNetRegistrar::Options o{model, 0, 1, 0};
   const auto plain = obmnet::ObmNetRegistrar(o).align(src, tgt);
   o.keep_start_if_fitter = true;
   const auto verified = obmnet::ObmNetRegistrar(o).align(src, tgt);
@@ -405,21 +405,16 @@ TEST(Registrar, KeepsItsStartWhenTheStartIsFitterThanTheNetwork) {
 TEST(Registrar, ModelTrainedWithoutTheRoadCutsItAtInference) {
   // model.ground_band: the registrar drops the ground plane's returns before sampling, and the
   // reported source indices still point at the input points the network saw.
-  const std::string dir = obm::test::scratchDir("obmnet_registrar_ground");
   obmnet::ObmNetConfig c;
-  c.emb_dims = 16;
-  c.n_samples = 8;
   c.n_iters = 1;
   c.ground_band = 0.3;
-  obmnet::ObmNet net(c);
-  ModelMeta meta;
-  meta.num_points = 96;
-  saveModel(dir + "/m.pt", net, meta);
+  const std::string model =
+      saveRegistrarModel(obm::test::scratchDir("obmnet_registrar_ground"), c, 3);
   PointCloud scan = sphereCloud(300, 3);  // the unit sphere around the sensor...
   std::mt19937_64 rng(4);
   std::uniform_real_distribution<float> u(-10.f, 10.f);
   for (int i = 0; i < 2000; ++i) scan.points.emplace_back(u(rng), u(rng), -1.7f);  // ...and a road
-  obmnet::ObmNetRegistrar reg({dir + "/m.pt", 0, 1, 0});
+  obmnet::ObmNetRegistrar reg({model, 0, 1, 0});
   const auto r = reg.align(scan, scan);
   ASSERT_EQ(r.source_sampled.size(), 96u);
   ASSERT_EQ(r.source_indices.size(), 96u);
