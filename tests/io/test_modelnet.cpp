@@ -133,6 +133,12 @@ TEST(ModelNet, ShapeNotBackedByTheFileIsAFormatErrorBeforeAnyAllocation) {
       std::string(OBM_SOURCE_DIR) + "/tests/fuzz/regressions/hdf5/metadata_size_134tb.h5";
   ASSERT_TRUE(fs::exists(meta));
   EXPECT_THROW(io::readModelNetH5(meta), Error);
+  // A third: a 2 kB file whose layout message claims more stored bytes than the file holds, so the
+  // shape looked backed by them. The claim is bounded by the file's size.
+  const std::string storage =
+      std::string(OBM_SOURCE_DIR) + "/tests/fuzz/regressions/hdf5/storage_claims_beyond_file.h5";
+  ASSERT_TRUE(fs::exists(storage));
+  expectThrowWith<FormatError>([&] { io::readModelNetH5(storage); }, {storage, "stores"});
 
   // The same claim made by a well-formed file: a dataset declared with a large shape and never
   // written (HDF5 allocates its storage lazily, so the file stays small).

@@ -62,7 +62,9 @@ struct Dataset {
 };
 
 /// Opens dataset `name`, checks that it exists, and returns its shape and element class.
-Dataset describe(hid_t file, const std::string& path, const std::string& name) {
+/// `file_bytes` bounds the storage the dataset's header may claim.
+Dataset describe(hid_t file, const std::string& path, const std::string& name,
+                 hsize_t file_bytes) {
   if (H5Lexists(file, name.c_str(), H5P_DEFAULT) <= 0)
     throw FormatError(path, 0, "HDF5 file has no dataset '" + name + "'");
   H5Id ds(H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose);
@@ -76,7 +78,7 @@ Dataset describe(hid_t file, const std::string& path, const std::string& name) {
   if (rank > 0) H5Sget_simple_extent_dims(space.get(), d.dims.data(), nullptr);
   d.type_class = type.ok() ? H5Tget_class(type.get()) : H5T_NO_CLASS;
   d.element_bytes = type.ok() ? H5Tget_size(type.get()) : 0;
-  d.storage_bytes = H5Dget_storage_size(ds.get());
+  d.storage_bytes = std::min(H5Dget_storage_size(ds.get()), file_bytes);
   H5Id plist(H5Dget_create_plist(ds.get()), H5Pclose);
   d.filters = plist.ok() ? std::max(0, H5Pget_nfilters(plist.get())) : 0;
   return d;
@@ -124,14 +126,17 @@ std::vector<LabeledCloud> readModelNetH5(const std::string& path, const ModelNet
   H5Id file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
   if (!file.ok()) throw IoError("cannot open HDF5 file '" + path + "'");
 
-  const Dataset data = describe(file.get(), path, options.data_dataset);
+  // The sizes a header claims are bounded by the file that holds them (a damaged layout message
+  // can claim gigabytes of storage in a file of a few kilobytes).
+  const hsize_t file_bytes = static_cast<hsize_t>(fs::file_size(path));
+  const Dataset data = describe(file.get(), path, options.data_dataset, file_bytes);
   if (data.dims.size() != 3 || data.dims[2] != 3)
     throw FormatError(path, 0,
                       "dataset '" + options.data_dataset + "' has shape " + shapeText(data.dims) +
                           ", expected shapes x points x 3");
   if (data.type_class != H5T_FLOAT)
     throw FormatError(path, 0, "dataset '" + options.data_dataset + "' is not floating-point");
-  const Dataset label = describe(file.get(), path, options.label_dataset);
+  const Dataset label = describe(file.get(), path, options.label_dataset, file_bytes);
   const bool label_ok =
       (label.dims.size() == 1 && label.dims[0] == data.dims[0]) ||
       (label.dims.size() == 2 && label.dims[0] == data.dims[0] && label.dims[1] == 1);
