@@ -165,6 +165,11 @@ TEST(ConstantVelocityModel, ScalesTheMotionByTheTimeBetweenFrames) {
   EXPECT_GT(transDiff(m.predict(1.3, false), step * step * step), 0.5);
   // A non-increasing time stamp falls back to one step.
   EXPECT_LT(transDiff(m.predict(1.1, true), step * step), 1e-9);
+  // The steps it extrapolated (what the recovery's gap paths start from).
+  EXPECT_NEAR(m.steps(1.3, true), 2.0, 1e-9);
+  EXPECT_NEAR(m.steps(1.3, false), 1.0, 1e-12);
+  EXPECT_NEAR(m.steps(1.1, true), 1.0, 1e-12);
+  EXPECT_LT(transDiff(m.lastPose(), step), 1e-12);
 }
 
 TEST(ConstantVelocityModel, CorrectionMovesTheHistoryRigidly) {

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <string>
 #include <utility>
@@ -135,7 +136,7 @@ TEST(FrontendParts, AcceptanceTestsCheckStatusQualityInliersThenTheCorrection) {
 
 TEST(FrontendParts, RecoveryStepsRunInTheDocumentedOrder) {
   EXPECT_EQ(Recovery::stepNames(),
-            (std::vector<std::string>{"wide_gate", "last_keyframe", "second_opinion",
+            (std::vector<std::string>{"wide_gate", "gap_paths", "last_keyframe", "second_opinion",
                                       "confirmed_jump"}));
 }
 
@@ -238,6 +239,83 @@ TEST(FrontendParts, AfterAGapOrWithAFitLikeTrackingTheRecoveryMayCorrectALargeTu
   const FrameResult large_turn = recover(0.0, 0.95);
   ASSERT_EQ(large_turn.status, TrackingStatus::Recovered) << large_turn.reason;
   EXPECT_LT((large_turn.match.T_target_source.translation() - T_true.translation()).norm(), 0.05);
+}
+
+TEST(FrontendParts, AfterAGapTheGapPathsFindTheCarWhereTheTurningGuessLostIt) {
+  // Four seconds of sweeps lost in a turn: the last motion is 0.25 m and 3° a frame, the guess
+  // drives it 40 times (120° round a 4.8 m circle), but the car left the turn after 15° and drove
+  // on straight, a little faster: 7 m from the guess and 105° turned from it.
+  TrackingParams tp;
+  const Tracker tracker(tp);
+  const registration::IcpMatcher icp;
+  Isometry3d last_motion = Isometry3d::Identity();
+  last_motion.rotate(Eigen::AngleAxisd(3.0 * kDegToRad, Eigen::Vector3d::UnitZ()));
+  last_motion.translation() = Eigen::Vector3d(0.25, 0.0, 0.0);
+  const Isometry3d T_last = shifted(-6.0);
+  const double steps = 40.0;
+  const Isometry3d T_guess = T_last * expSE3(steps * logSE3(last_motion));
+  Isometry3d T_true = T_last * expSE3(5.0 * logSE3(last_motion));
+  T_true.translation() += T_true.linear() * Eigen::Vector3d(0.3 * 35.0, 0.0, 0.0);
+  // A street corner without the box's near-symmetries (a box turned by 90° fits its ground and
+  // half its walls): two facades, a shorter one and pillars at irregular places, a coarse road.
+  PointCloud corner;
+  for (double x = -20.0; x <= 20.0; x += 1.0)
+    for (double y = -20.0; y <= 20.0; y += 1.0)
+      corner.push_back(Vector3f(static_cast<float>(x), static_cast<float>(y), -1.5f));
+  for (double s = -20.0; s <= 20.0; s += 0.4)
+    for (double z = -1.0; z <= 6.0; z += 0.4) {
+      corner.push_back(Vector3f(-12.0f, static_cast<float>(s), static_cast<float>(z)));
+      if (s < 5.0) corner.push_back(Vector3f(14.0f, static_cast<float>(s), static_cast<float>(z)));
+      if (s < 0.0) corner.push_back(Vector3f(static_cast<float>(s), 17.0f, static_cast<float>(z)));
+    }
+  for (const auto& [px, py] :
+       std::vector<std::pair<float, float>>{{3, 8}, {-5, -9}, {8, -12}, {-8, 11}, {10, 3}})
+    for (double a = 0.0; a < 6.28; a += 0.5)
+      for (double z = -1.0; z <= 4.0; z += 0.3)
+        corner.push_back(Vector3f(px + 0.3f * static_cast<float>(std::cos(a)),
+                                  py + 0.3f * static_cast<float>(std::sin(a)),
+                                  static_cast<float>(z)));
+  Keyframe kf;
+  kf.id = 3;
+  kf.cloud = corner;  // the local map, in the world frame
+  PointCloud sweep;
+  const Eigen::Isometry3f T_sensor_world = T_true.inverse().cast<float>();
+  for (const Vector3f& q : corner.points) sweep.push_back(T_sensor_world * q);
+  const registration::PreparedTarget local_map(kf.cloud, tracker.icp().icpParams().targetOptions());
+  ASSERT_GT((T_guess.inverse() * T_true).translation().norm(), 6.0);
+  const auto recover = [&](double min_steps) {
+    tp.recovery_gap_rotation = true;
+    tp.recovery_gap_speeds = {1.0, 1.2, 1.4};
+    tp.recovery_gap_min_steps = min_steps;
+    Recovery recovery(tp, tracker.wideGate(), icp);
+    RecoveryInput in{sweep,
+                     T_guess,
+                     local_map,
+                     kf,
+                     4,
+                     last_motion,
+                     0.9,
+                     std::max(0.0, rotationAngle((T_last.inverse() * T_guess).linear()) -
+                                       rotationAngle(last_motion.linear()))};
+    in.T_last = T_last;
+    in.steps = steps;
+    FrameResult fr;
+    StageTimes times;
+    recovery.startSweep();
+    recovery.recover(in, {RejectionKind::InlierRatio, "tracking said no"}, fr, times);
+    return std::make_pair(fr, recovery.takenBy());
+  };
+  const auto [off, off_step] = recover(0.0);
+  EXPECT_NE(off.status, TrackingStatus::Recovered) << off.reason;
+  const auto [on, on_step] = recover(5.0);
+  ASSERT_EQ(on.status, TrackingStatus::Recovered) << on.reason;
+  EXPECT_EQ(on_step, "gap_paths") << on.reason;
+  const Isometry3d err = T_true.inverse() * on.match.T_target_source;
+  EXPECT_LT(err.translation().norm(), 0.05) << on.reason;
+  EXPECT_LT(rotationAngle(err.linear()) * kRadToDeg, 0.2) << on.reason;
+  // A gap shorter than min_steps leaves the step out.
+  const auto [short_gap, short_step] = recover(41.0);
+  EXPECT_NE(short_step, "gap_paths");
 }
 
 TEST(FrontendParts, AnAsynchronousLocalMapIsInstalledAFixedNumberOfFramesLater) {

@@ -234,10 +234,15 @@ struct Frontend::Impl {
             ? std::max(0.0, rotationAngle((T_world_current.inverse() * T_guess).linear()) -
                                 rotationAngle(last_motion.linear()))
             : 0.0;
-    const RecoveryInput in{source,           T_guess,          local_map.target(),
-                           keyframes.back(), keyframes.size(), last_motion,
-                           inl_ref,          extrapolated};
+    RecoveryInput in{source,      T_guess, local_map.target(), keyframes.back(), keyframes.size(),
+                     last_motion, inl_ref, extrapolated};
+    in.T_last = T_world_current;
+    in.steps = motion.steps(fr.timestamp, p.tracking.use_timestamps);
     recovery.recover(in, rejection, fr, times);
+    // After a gap the view overlaps the local map less than the frames before it did: the
+    // frames after it are judged against the recovered frame's fit, not the old one.
+    if (fr.status == TrackingStatus::Recovered && recovery.takenBy() == "gap_paths")
+      tracker.restartRecentInliers(fr.match.inlier_ratio);
   }
 
   /// The scan matcher's registration of the sweep against the last keyframe (world frame), from

@@ -21,14 +21,18 @@ Isometry3d ConstantVelocityModel::lastMotion() const {
   return prev_.inverse() * last_;
 }
 
+double ConstantVelocityModel::steps(double t, bool use_time) const {
+  if (count_ < 2 || !use_time) return 1.0;
+  const double dt_prev = t_last_ - t_prev_;
+  const double dt = t - t_last_;
+  return dt_prev > 0.0 && dt > 0.0 ? dt / dt_prev : 1.0;
+}
+
 Isometry3d ConstantVelocityModel::predict(double t, bool use_time) const {
   if (count_ == 0) return Isometry3d::Identity();
   if (count_ == 1) return last_;
   const Isometry3d motion = lastMotion();
-  double s = 1.0;
-  const double dt_prev = t_last_ - t_prev_;
-  const double dt = t - t_last_;
-  if (use_time && dt_prev > 0.0 && dt > 0.0) s = dt / dt_prev;
+  const double s = steps(t, use_time);
   if (s == 1.0) return last_ * motion;
   // Constant twist: Exp(s · Log(motion)) (Log / Exp on SE(3), translation first).
   return last_ * expSE3(s * logSE3(motion));

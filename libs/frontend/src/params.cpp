@@ -137,6 +137,23 @@ void TrackingParams::validate() const {
   require(!recovery_confirm_jumps || recovery_agreement_translation > 0.0,
           "recovery_confirm_jumps",
           "needs recovery_agreement_translation > 0 (the agreement that confirms a jump)");
+  require(finite(recovery_gap_min_steps) && recovery_gap_min_steps >= 0.0, "recovery_gap_min_steps",
+          "must be >= 0 (0 = never)");
+  require(finite(recovery_gap_turn_step) && recovery_gap_turn_step > 0.0,
+          "recovery_gap_turn_step_deg", "must be > 0 [deg]");
+  require(!recovery_gap_speeds.empty() &&
+              std::all_of(recovery_gap_speeds.begin(), recovery_gap_speeds.end(),
+                          [](double s) { return std::isfinite(s) && s > 0.0; }),
+          "recovery_gap_speeds", "must be a non-empty list of factors > 0");
+  require(recovery_gap_relative_inlier_ratio >= 0.0 && recovery_gap_relative_inlier_ratio <= 1.0,
+          "recovery_gap_relative_inlier_ratio", "must be in [0, 1]");
+  require(recovery_gap_min_support >= 1, "recovery_gap_min_support", "must be >= 1");
+  require(recovery_gap_rival_ratio > 0.0 && recovery_gap_rival_ratio <= 1.0,
+          "recovery_gap_rival_ratio", "must be in (0, 1]");
+  require(finite(recovery_gap_agreement_translation) && recovery_gap_agreement_translation > 0.0,
+          "recovery_gap_agreement_translation", "must be > 0 [m]");
+  require(finite(recovery_gap_agreement_rotation) && recovery_gap_agreement_rotation > 0.0,
+          "recovery_gap_agreement_rotation_deg", "must be > 0 [deg]");
   require(recovery_large_turn_relative_inlier_ratio >= 0.0 &&
               recovery_large_turn_relative_inlier_ratio <= 1.0,
           "recovery_large_turn_relative_inlier_ratio", "must be in [0, 1] (0 = never)");
@@ -183,6 +200,14 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
                   "recovery_confirmed_relative_inlier_ratio",
                   "recovery_gap_rotation",
                   "recovery_large_turn_relative_inlier_ratio",
+                  "recovery_gap_min_steps",
+                  "recovery_gap_turn_step_deg",
+                  "recovery_gap_speeds",
+                  "recovery_gap_relative_inlier_ratio",
+                  "recovery_gap_min_support",
+                  "recovery_gap_rival_ratio",
+                  "recovery_gap_agreement_translation",
+                  "recovery_gap_agreement_rotation_deg",
                   "max_bridge_frames",
                   "information_scale",
                   "floor_sigma_translation",
@@ -218,6 +243,14 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
   node.get("recovery_gap_rotation", p.recovery_gap_rotation);
   node.get("recovery_large_turn_relative_inlier_ratio",
            p.recovery_large_turn_relative_inlier_ratio);
+  node.get("recovery_gap_min_steps", p.recovery_gap_min_steps);
+  node.getDegAsRad("recovery_gap_turn_step_deg", p.recovery_gap_turn_step);
+  node.get("recovery_gap_speeds", p.recovery_gap_speeds);
+  node.get("recovery_gap_relative_inlier_ratio", p.recovery_gap_relative_inlier_ratio);
+  node.get("recovery_gap_min_support", p.recovery_gap_min_support);
+  node.get("recovery_gap_rival_ratio", p.recovery_gap_rival_ratio);
+  node.get("recovery_gap_agreement_translation", p.recovery_gap_agreement_translation);
+  node.getDegAsRad("recovery_gap_agreement_rotation_deg", p.recovery_gap_agreement_rotation);
   node.get("max_bridge_frames", p.max_bridge_frames);
   node.get("information_scale", p.information_scale);
   node.get("floor_sigma_translation", p.floor_sigma_translation);

@@ -2,12 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <vector>
 
 #include "matcher_stage.hpp"
-#include "obm/frontend/stages.hpp"
 #include "obm/core/log.hpp"
+#include "obm/frontend/stages.hpp"
 #include "tracker.hpp"
 
 namespace obm::frontend {
@@ -44,9 +45,8 @@ struct Recovery::Attempt {
 };
 
 const Recovery::Step Recovery::kSteps[] = {
-    {"wide_gate", &Recovery::wideGate},
-    {"last_keyframe", &Recovery::lastKeyframe},
-    {"second_opinion", &Recovery::secondOpinion},
+    {"wide_gate", &Recovery::wideGate},           {"gap_paths", &Recovery::gapPaths},
+    {"last_keyframe", &Recovery::lastKeyframe},   {"second_opinion", &Recovery::secondOpinion},
     {"confirmed_jump", &Recovery::confirmedJump},
 };
 
@@ -81,8 +81,12 @@ void Recovery::recover(const RecoveryInput& in, const Rejection& rejection, Fram
                  tp.recovery_max_correction, max_rot};
   a.confirmed = a.recovered;
   a.confirmed.min_inlier_ratio = tp.recovery_confirmed_relative_inlier_ratio * in.inlier_reference;
+  taken_by_.clear();
   for (const Step& step : kSteps)
-    if ((this->*step.run)(a)) return;
+    if ((this->*step.run)(a)) {
+      taken_by_ = step.name;
+      return;
+    }
   fr.status = TrackingStatus::Bridged;
   fr.reason = a.reason + a.trailer;
 }
@@ -149,6 +153,100 @@ bool Recovery::wideGate(Attempt& a) {
   if (found) return a.take(best, "the wide-gate recovery");
   a.reason += "; wide-gate recovery: " + why;
   return false;
+}
+
+/// Over a gap of n steps the constant-velocity guess drives the last motion n times: a turn
+/// continued for the whole gap, at the same speed. A car leaves a turn and changes speed, so the
+/// hypotheses are the paths that turn at the last turn rate for part of the gap (every
+/// recovery_gap_turn_step of heading, up to the whole extrapolated turn) and drive straight for
+/// the rest, at the speeds of recovery_gap_speeds; each starts the wide-gate ICP against the local
+/// map. The guess bounds nothing here (it may be tens of metres and degrees off); instead the
+/// registrations are judged against one another: the fittest acceptable one is taken when at
+/// least recovery_gap_min_support starts reach it (a basin, not one start's accident) and no
+/// acceptable registration elsewhere pairs nearly as many points (recovery_gap_rival_ratio: a
+/// street of repeated blocks offers several poses that fit alike).
+bool Recovery::gapPaths(Attempt& a) {
+  const TrackingParams& tp = params_;
+  const RecoveryInput& in = a.in;
+  if (wide_gate_ == nullptr || tp.recovery_gap_min_steps <= 0.0 ||
+      in.steps < tp.recovery_gap_min_steps)
+    return false;
+  const Eigen::Matrix<double, 6, 1> xi = logSE3(in.last_motion);  // translation first
+  const Eigen::Vector3d v = xi.head<3>(), w = xi.tail<3>();
+  const double turn_per_step = w.norm();
+  const double n = in.steps;
+  std::vector<double> turn_steps{0.0};  // steps of turning before driving straight
+  if (turn_per_step * n > 1e-3) {
+    for (double th = tp.recovery_gap_turn_step; th < n * turn_per_step;
+         th += tp.recovery_gap_turn_step)
+      turn_steps.push_back(th / turn_per_step);
+    turn_steps.push_back(n);
+  }
+  AcceptanceBounds bounds = a.recovered;
+  bounds.min_inlier_ratio = tp.recovery_gap_relative_inlier_ratio * in.inlier_reference;
+  bounds.max_correction = std::numeric_limits<double>::infinity();
+  bounds.max_rotation = std::numeric_limits<double>::infinity();
+  std::vector<registration::MatchResult> ok;
+  for (double m : turn_steps)
+    for (double speed : tp.recovery_gap_speeds) {
+      Eigen::Matrix<double, 6, 1> turn;
+      turn << speed * m * v, m * w;
+      Isometry3d T_start = in.T_last * expSE3(turn);
+      T_start.translation() += T_start.linear() * (speed * (n - m) * v);
+      registration::MatchResult r;
+      {
+        TimedStage s(a.times, Stage::Icp);
+        r = wide_gate_->match(in.source, in.local_map, T_start);
+        // Tens of metres from the start the iteration limit may stop ICP on its way: a
+        // registration that already fits is continued once from where it stopped.
+        if (r.status == registration::MatchStatus::NotConverged &&
+            !checkAcceptance(r, in.T_guess, bounds).rejected())
+          r = wide_gate_->match(in.source, in.local_map, r.T_target_source);
+      }
+      const Rejection why = checkAcceptance(r, in.T_guess, bounds);
+      OBM_LOG_DEBUG(kLog, "frame " << a.fr.index << ": gap path turning "
+                                   << m * turn_per_step * kRadToDeg << " deg, speed x" << speed
+                                   << ": inlier ratio " << r.inlier_ratio << ", quality "
+                                   << r.quality << ", " << toString(r.status)
+                                   << (why.rejected() ? " (" + why.detail + ")" : ""));
+      // Only registrations that came to rest compete: one stopped by the iteration limit is still
+      // sliding (along a street, towards the basin another start reached).
+      if (!why.rejected() && r.status == registration::MatchStatus::Ok) ok.push_back(r);
+    }
+  if (ok.empty()) {
+    a.reason += "; gap paths: no acceptable registration from " +
+                std::to_string(turn_steps.size() * tp.recovery_gap_speeds.size()) + " starts";
+    return false;
+  }
+  const auto best = std::max_element(ok.begin(), ok.end(), [](const auto& x, const auto& y) {
+    return x.inlier_ratio < y.inlier_ratio;
+  });
+  int support = 0;
+  double rival = 0.0;
+  for (const registration::MatchResult& r : ok) {
+    if (gapAgree(best->T_target_source, r.T_target_source))
+      ++support;
+    else
+      rival = std::max(rival, r.inlier_ratio);
+  }
+  const Isometry3d d = in.T_last.inverse() * best->T_target_source;
+  char found[160];
+  std::snprintf(found, sizeof(found),
+                "%.1f m / %.1f deg from the last frame, inlier ratio %.3f, %d of %zu acceptable "
+                "starts agree, best elsewhere %.3f",
+                d.translation().norm(), rotationAngle(d.linear()) * kRadToDeg, best->inlier_ratio,
+                support, ok.size(), rival);
+  if (support >= tp.recovery_gap_min_support &&
+      rival < tp.recovery_gap_rival_ratio * best->inlier_ratio)
+    return a.take(*best, std::string("the gap paths (") + found + ")");
+  a.reason += std::string("; gap paths ambiguous: ") + found;
+  return false;
+}
+
+bool Recovery::gapAgree(const Isometry3d& T_a, const Isometry3d& T_b) const {
+  const Isometry3d d = T_a.inverse() * T_b;
+  return d.translation().norm() <= params_.recovery_gap_agreement_translation &&
+         rotationAngle(d.linear()) <= params_.recovery_gap_agreement_rotation;
 }
 
 /// The scan matcher against the last keyframe, from the same guess (pre-aligned for the

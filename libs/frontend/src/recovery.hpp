@@ -7,6 +7,9 @@
 ///  1. wide_gate       ICP against the local map with the correspondence gate annealed from
 ///                     TrackingParams::recovery_gate, from the guess and the guess turned by
 ///                     ±k·recovery_rotation_step; the best acceptable registration is taken.
+///  1b. gap_paths     after a gap in the time stamps: the wide-gate ICP from the poses of the
+///                     paths the car may have driven meanwhile (the turn continued for part of
+///                     the gap, the speed changed), judged against one another.
 ///  2. last_keyframe   the scan matcher (OBMNet + ICP or ICP) against the last keyframe alone.
 ///  3. second_opinion  a wide-gate registration that failed only the relative inlier ratio is
 ///                     taken when the last-keyframe registration lands on the same pose.
@@ -55,6 +58,10 @@ struct RecoveryInput {
   /// extrapolated by X may be wrong by X (the car may have stopped turning when the sweeps
   /// stopped coming), so the recovery's rotation bound and hypotheses grow by it.
   double extrapolated_rotation = 0.0;
+  /// The pose of the frame before and the steps of the last motion the guess extrapolated from
+  /// it (1 without a gap in the time stamps; the gap_paths step runs from it over a gap).
+  Isometry3d T_last = Isometry3d::Identity();
+  double steps = 1.0;
 };
 
 class Recovery {
@@ -79,6 +86,9 @@ class Recovery {
   /// its registered pose), once; empty otherwise.
   std::optional<JumpCandidate> takeConfirmedJump();
 
+  /// The name of the step that took the last recovered frame (empty when it was bridged).
+  const std::string& takenBy() const { return taken_by_; }
+
   /// A new keyframe: the cached last-keyframe target is stale.
   void keyframeAdded() { last_keyframe_target_.reset(); }
 
@@ -95,11 +105,13 @@ class Recovery {
   static const Step kSteps[];
 
   bool wideGate(Attempt& a);
+  bool gapPaths(Attempt& a);
   bool lastKeyframe(Attempt& a);
   bool secondOpinion(Attempt& a);
   bool confirmedJump(Attempt& a);
 
   bool agree(const Isometry3d& T_a, const Isometry3d& T_b) const;
+  bool gapAgree(const Isometry3d& T_a, const Isometry3d& T_b) const;
 
   TrackingParams params_;
   const registration::IcpMatcher* wide_gate_;
@@ -109,6 +121,7 @@ class Recovery {
   std::optional<JumpCandidate> candidate_;  // from this sweep, if any
   std::optional<JumpCandidate> previous_;   // from the sweep before, if any
   std::optional<JumpCandidate> confirmed_;  // set by recover(), taken by the caller
+  std::string taken_by_;                    // the step that took the last frame
 };
 
 }  // namespace obm::frontend

@@ -56,6 +56,9 @@ class Tracker {
   double recentInlierRatio() const;
   /// Forgets the recent inlier ratios (the local map restarted).
   void forgetRecentInliers() { recent_inliers_.clear(); }
+  /// The recent inlier ratios start again from `inlier_ratio` (the view after a gap overlaps the
+  /// local map less than the frames before it did).
+  void restartRecentInliers(double inlier_ratio) { recent_inliers_.assign(1, inlier_ratio); }
 
   /// The tracking ICP (its target options are the local map's).
   const registration::IcpMatcher& icp() const { return *icp_; }

@@ -17,6 +17,11 @@ class ConstantVelocityModel {
   /// s = (t − t_last)/(t_last − t_prev) when `use_time` and both intervals are positive, else
   /// s = 1 (one more step of the same motion). With fewer than two poses: the last pose (or I).
   Isometry3d predict(double t, bool use_time = true) const;
+  /// How many steps of the last motion predict() applies for time `t` (the s above; 1 without
+  /// time stamps or with fewer than two poses): over a gap in the stamps, the steps lost + 1.
+  double steps(double t, bool use_time = true) const;
+  /// The last recorded pose (identity before any).
+  const Isometry3d& lastPose() const { return last_; }
   /// The last relative motion T_prev⁻¹ · T_last (identity with fewer than two poses).
   Isometry3d lastMotion() const;
   /// Number of poses recorded (saturates at 2).
