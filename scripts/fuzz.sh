@@ -2,12 +2,15 @@
 # Fuzzes every reader of user input with libFuzzer (clang, AddressSanitizer + UBSan) and prints a
 # table: executions, coverage, crashes. Docs: docs/benchmarks.md, "Fuzzing".
 #
-#   scripts/fuzz.sh [SECONDS_PER_TARGET=60] [TARGETS="ply pcd off_obj kitti trajectories png jpeg hdf5 rawlog graph yaml"]
+#   scripts/fuzz.sh [SECONDS_PER_TARGET=60] [TARGETS="ply pcd off_obj kitti trajectories png jpeg hdf5 rawlog graph yaml model"]
 #   scripts/fuzz.sh runs:N [TARGETS]   # N executions per target (e.g. runs:10000000), timed
 #   scripts/fuzz.sh ci        # CI: a fixed number of runs from the seeds alone, fixed seed
 #                             # (deterministic: a clean run here is a clean run in CI)
 #
-# Builds ./build-fuzz ($OBM_FUZZ_BUILD to choose another folder; CXX=clang++, -DOBM_FUZZ=ON, no LibTorch, no apps). Seed corpora come from
+# Builds ./build-fuzz ($OBM_FUZZ_BUILD to choose another folder; CXX=clang++, -DOBM_FUZZ=ON, no LibTorch, no apps);
+# the `model` target (OBMNet model files) needs LibTorch and is built in ./build-fuzz-torch (the
+# network library under clang + ASan: ~15 min of build on 2 cores, so not in the CI run, where the
+# test ModelFile.EveryCorruptionLoadsOrIsAFormatErrorNamingTheFile sweeps damaged models instead). Seed corpora come from
 # the real files of ../shared/data (or $OBM_SHARED_DATA), the project's configs and a few files
 # written here; the corpora grow in build-fuzz/corpus/<target>/ across runs. A crash leaves its
 # input in build-fuzz/findings/<target>/ and makes the script exit 1.
@@ -20,7 +23,7 @@ SECS=${1:-60}
 if [[ $SECS == ci ]]; then
   TARGETS=${2:-"ply pcd off_obj kitti trajectories png jpeg hdf5 graph yaml"}
 else
-  TARGETS=${2:-"ply pcd off_obj kitti trajectories png jpeg hdf5 rawlog graph yaml"}
+  TARGETS=${2:-"ply pcd off_obj kitti trajectories png jpeg hdf5 rawlog graph yaml model"}
 fi
 BUILD="${OBM_FUZZ_BUILD:-$ROOT/build-fuzz}"
 DATA="${OBM_SHARED_DATA:-$ROOT/../shared/data}"
@@ -31,7 +34,19 @@ if [[ ! -f "$BUILD/CMakeCache.txt" ]]; then
     -DOBM_FUZZ=ON -DOBM_WITH_TORCH=OFF -DOBM_BUILD_APPS=OFF -DOBM_BUILD_TESTS=OFF > "$BUILD/configure.log" 2>&1 ||
     { cat "$BUILD/configure.log"; exit 1; }
 fi
-cmake --build "$BUILD" -j"${OBM_JOBS:-$(nproc)}" --target $(for t in $TARGETS; do printf 'fuzz_%s ' "$t"; done)
+PLAIN=$(for t in $TARGETS; do [[ $t == model ]] || printf 'fuzz_%s ' "$t"; done)
+[[ -z $PLAIN ]] || cmake --build "$BUILD" -j"${OBM_JOBS:-$(nproc)}" --target $PLAIN
+BUILD_TORCH="$BUILD-torch"
+if [[ " $TARGETS " == *" model "* ]]; then
+  if [[ ! -f "$BUILD_TORCH/CMakeCache.txt" ]]; then
+    mkdir -p "$BUILD_TORCH"
+    CC=clang CXX=clang++ cmake -S "$ROOT" -B "$BUILD_TORCH" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+      -DOBM_FUZZ=ON -DOBM_WITH_TORCH=ON -DOBM_BUILD_APPS=OFF -DOBM_BUILD_TESTS=OFF > "$BUILD_TORCH/configure.log" 2>&1 ||
+      { cat "$BUILD_TORCH/configure.log"; exit 1; }
+  fi
+  cmake --build "$BUILD_TORCH" -j"${OBM_JOBS:-$(nproc)}" --target fuzz_model
+fi
+fuzzer() { if [[ $1 == model ]]; then echo "$BUILD_TORCH/tests/fuzz/fuzz_model"; else echo "$BUILD/tests/fuzz/fuzz_$1"; fi; }
 
 # seed DIR FILES...: copies the first 64 kB of each existing file into the corpus folder.
 seed() {
@@ -64,6 +79,14 @@ fi
 seed "$C/rawlog" /usr/share/mrpt/datasets/rot_scan_2d.rawlog /usr/share/mrpt/datasets/localization_demo.rawlog
 seed "$C/graph" "$DATA"/posegraph/tinyGrid3D.g2o "$DATA"/posegraph/intel.g2o
 seed "$C/yaml" "$ROOT"/config/*.yaml "$ROOT"/config/obmnet/*.yaml
+# Model files: the small untrained models the unit tests write (build*/test_scratch: run the
+# obmnet tests first), whole (the 64 kB cut of seed() would leave only broken archives).
+if [[ " $TARGETS " == *" model "* ]]; then
+  mkdir -p "$C/model"
+  for f in $(find "$ROOT"/build*/test_scratch -name '*.pt' -size -1000k 2> /dev/null | sort | head -6); do
+    cp "$f" "$C/model/seed_$(basename "$(dirname "$f")")_$(basename "$f")"
+  done
+fi
 # Every past finding (tests/fuzz/regressions/<target>/) is a seed too.
 for t in $TARGETS; do
   mkdir -p "$C/$t"
@@ -85,6 +108,9 @@ for t in $TARGETS; do
   # (Zero-filling such a string takes seconds under ASan: rawlogs get a longer per-input timeout.)
   limit=(-rss_limit_mb=2048 -malloc_limit_mb=2048 -timeout=10)
   [[ $t == rawlog ]] && limit=(-rss_limit_mb=6144 -malloc_limit_mb=4608 -timeout=60)
+  # A model file is half a megabyte (inputs up to 1 MB) and LibTorch keeps its own caches.
+  max_len=262144
+  [[ $t == model ]] && max_len=1048576 && limit=(-rss_limit_mb=4096 -malloc_limit_mb=2048 -timeout=30)
   if [[ $SECS == ci ]]; then
     budget=(-runs=3000 -seed=1)
   elif [[ $SECS == runs:* ]]; then
@@ -99,8 +125,8 @@ for t in $TARGETS; do
   # the NULL); allocations that succeed above -malloc_limit_mb are still findings.
   ASAN_OPTIONS="detect_container_overflow=0:detect_odr_violation=0:detect_leaks=1:allocator_may_return_null=1" \
   LSAN_OPTIONS="suppressions=$ROOT/.ci/lsan.supp:print_suppressions=0" \
-    "$BUILD/tests/fuzz/fuzz_$t" "${budget[@]}" "${limit[@]}" \
-    -max_len=262144 -print_final_stats=1 -artifact_prefix="$BUILD/findings/$t/" "$C/$t" > "$log" 2>&1
+    "$(fuzzer "$t")" "${budget[@]}" "${limit[@]}" \
+    -max_len="$max_len" -print_final_stats=1 -artifact_prefix="$BUILD/findings/$t/" "$C/$t" > "$log" 2>&1
   rc=$?
   set -e
   execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)

@@ -69,6 +69,29 @@ registration::MatchResult goodMatch() {
   return r;
 }
 
+/// A street corner without the box's near-symmetries (a box turned by 90° fits its ground and
+/// half its walls): two facades, a shorter one and pillars at irregular places, a coarse road.
+PointCloud cornerCloud() {
+  PointCloud corner;
+  for (double x = -20.0; x <= 20.0; x += 1.0)
+    for (double y = -20.0; y <= 20.0; y += 1.0)
+      corner.push_back(Vector3f(static_cast<float>(x), static_cast<float>(y), -1.5f));
+  for (double s = -20.0; s <= 20.0; s += 0.4)
+    for (double z = -1.0; z <= 6.0; z += 0.4) {
+      corner.push_back(Vector3f(-12.0f, static_cast<float>(s), static_cast<float>(z)));
+      if (s < 5.0) corner.push_back(Vector3f(14.0f, static_cast<float>(s), static_cast<float>(z)));
+      if (s < 0.0) corner.push_back(Vector3f(static_cast<float>(s), 17.0f, static_cast<float>(z)));
+    }
+  for (const auto& [px, py] :
+       std::vector<std::pair<float, float>>{{3, 8}, {-5, -9}, {8, -12}, {-8, 11}, {10, 3}})
+    for (double a = 0.0; a < 6.28; a += 0.5)
+      for (double z = -1.0; z <= 4.0; z += 0.3)
+        corner.push_back(Vector3f(px + 0.3f * static_cast<float>(std::cos(a)),
+                                  py + 0.3f * static_cast<float>(std::sin(a)),
+                                  static_cast<float>(z)));
+  return corner;
+}
+
 // ---------------------------------------------------------------------------------------------
 TEST(FrontendParts, EdgeInformationHasTheFloorAndBridgeEdgesTheirSigmas) {
   // An over-confident match is limited by the floor: Ω → diag(1/σ_t², 1/σ_r²).
@@ -256,25 +279,7 @@ TEST(FrontendParts, AfterAGapTheGapPathsFindTheCarWhereTheTurningGuessLostIt) {
   const Isometry3d T_guess = T_last * expSE3(steps * logSE3(last_motion));
   Isometry3d T_true = T_last * expSE3(5.0 * logSE3(last_motion));
   T_true.translation() += T_true.linear() * Eigen::Vector3d(0.3 * 35.0, 0.0, 0.0);
-  // A street corner without the box's near-symmetries (a box turned by 90° fits its ground and
-  // half its walls): two facades, a shorter one and pillars at irregular places, a coarse road.
-  PointCloud corner;
-  for (double x = -20.0; x <= 20.0; x += 1.0)
-    for (double y = -20.0; y <= 20.0; y += 1.0)
-      corner.push_back(Vector3f(static_cast<float>(x), static_cast<float>(y), -1.5f));
-  for (double s = -20.0; s <= 20.0; s += 0.4)
-    for (double z = -1.0; z <= 6.0; z += 0.4) {
-      corner.push_back(Vector3f(-12.0f, static_cast<float>(s), static_cast<float>(z)));
-      if (s < 5.0) corner.push_back(Vector3f(14.0f, static_cast<float>(s), static_cast<float>(z)));
-      if (s < 0.0) corner.push_back(Vector3f(static_cast<float>(s), 17.0f, static_cast<float>(z)));
-    }
-  for (const auto& [px, py] :
-       std::vector<std::pair<float, float>>{{3, 8}, {-5, -9}, {8, -12}, {-8, 11}, {10, 3}})
-    for (double a = 0.0; a < 6.28; a += 0.5)
-      for (double z = -1.0; z <= 4.0; z += 0.3)
-        corner.push_back(Vector3f(px + 0.3f * static_cast<float>(std::cos(a)),
-                                  py + 0.3f * static_cast<float>(std::sin(a)),
-                                  static_cast<float>(z)));
+  const PointCloud corner = cornerCloud();
   Keyframe kf;
   kf.id = 3;
   kf.cloud = corner;  // the local map, in the world frame
@@ -284,8 +289,7 @@ TEST(FrontendParts, AfterAGapTheGapPathsFindTheCarWhereTheTurningGuessLostIt) {
   const registration::PreparedTarget local_map(kf.cloud, tracker.icp().icpParams().targetOptions());
   ASSERT_GT((T_guess.inverse() * T_true).translation().norm(), 6.0);
   const auto recover = [&](double min_steps) {
-    tp.recovery_gap_rotation = true;
-    tp.recovery_gap_speeds = {1.0, 1.2, 1.4};
+    tp.recovery_gap_speeds = {1.0, 1.2, 1.4};  // (the wide gate keeps its ±20°: faster)
     tp.recovery_gap_min_steps = min_steps;
     Recovery recovery(tp, tracker.wideGate(), icp);
     RecoveryInput in{sweep,
@@ -316,6 +320,49 @@ TEST(FrontendParts, AfterAGapTheGapPathsFindTheCarWhereTheTurningGuessLostIt) {
   // A gap shorter than min_steps leaves the step out.
   const auto [short_gap, short_step] = recover(41.0);
   EXPECT_NE(short_step, "gap_paths");
+}
+
+TEST(FrontendParts, AJumpTheStampsHideIsFoundAmongThePathsOfLostSweeps) {
+  // Twelve sweeps lost on a straight drive at 0.6 m a frame, the time stamps regular: the guess
+  // is one step on, the car 7.2 m further, beyond what the wide gate corrects.
+  TrackingParams tp;
+  tp.recovery_gap_min_steps = 5.0;
+  const Tracker tracker(tp);
+  const registration::IcpMatcher icp;
+  Isometry3d last_motion = Isometry3d::Identity();
+  last_motion.translation() = Eigen::Vector3d(0.6, 0.0, 0.0);
+  const Isometry3d T_last = shifted(-6.0);
+  const Isometry3d T_guess = T_last * last_motion;
+  const Isometry3d T_true = shifted(-6.0 + 13 * 0.6);
+  Keyframe kf;
+  kf.id = 3;
+  kf.cloud = cornerCloud();
+  PointCloud sweep;
+  const Eigen::Isometry3f T_sensor_world = T_true.inverse().cast<float>();
+  for (const Vector3f& q : kf.cloud.points) sweep.push_back(T_sensor_world * q);
+  const registration::PreparedTarget local_map(kf.cloud, tracker.icp().icpParams().targetOptions());
+  const auto recover = [&](int max_steps) {
+    tp.recovery_jump_max_steps = max_steps;
+    Recovery recovery(tp, tracker.wideGate(), icp);
+    RecoveryInput in{sweep, T_guess, local_map, kf, 4, last_motion, 0.9, 0.0};
+    in.T_last = T_last;
+    in.steps = 1.0;
+    FrameResult fr;
+    StageTimes times;
+    recovery.startSweep();
+    recovery.recover(in, {RejectionKind::TranslationJump, "tracking said no"}, fr, times);
+    return std::make_pair(fr, recovery.takenBy());
+  };
+  const auto [off, off_step] = recover(0);
+  EXPECT_NE(off_step, "gap_paths") << off.reason;
+  EXPECT_NE(off.status, TrackingStatus::Recovered) << off.reason;
+  const auto [on, on_step] = recover(16);
+  ASSERT_EQ(on.status, TrackingStatus::Recovered) << on.reason;
+  EXPECT_EQ(on_step, "gap_paths") << on.reason;
+  EXPECT_NE(on.reason.find("jump paths"), std::string::npos) << on.reason;
+  const Isometry3d err = T_true.inverse() * on.match.T_target_source;
+  EXPECT_LT(err.translation().norm(), 0.05) << on.reason;
+  EXPECT_LT(rotationAngle(err.linear()) * kRadToDeg, 0.2) << on.reason;
 }
 
 TEST(FrontendParts, AnAsynchronousLocalMapIsInstalledAFixedNumberOfFramesLater) {

@@ -147,6 +147,8 @@ void TrackingParams::validate() const {
           "recovery_gap_speeds", "must be a non-empty list of factors > 0");
   require(recovery_gap_relative_inlier_ratio >= 0.0 && recovery_gap_relative_inlier_ratio <= 1.0,
           "recovery_gap_relative_inlier_ratio", "must be in [0, 1]");
+  require(recovery_jump_max_steps >= 0, "recovery_jump_max_steps", "must be >= 0 (0 = never)");
+  require(recovery_jump_step >= 1, "recovery_jump_step", "must be >= 1");
   require(recovery_gap_min_support >= 1, "recovery_gap_min_support", "must be >= 1");
   require(recovery_gap_rival_ratio > 0.0 && recovery_gap_rival_ratio <= 1.0,
           "recovery_gap_rival_ratio", "must be in (0, 1]");
@@ -208,6 +210,8 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
                   "recovery_gap_rival_ratio",
                   "recovery_gap_agreement_translation",
                   "recovery_gap_agreement_rotation_deg",
+                  "recovery_jump_max_steps",
+                  "recovery_jump_step",
                   "max_bridge_frames",
                   "information_scale",
                   "floor_sigma_translation",
@@ -251,6 +255,8 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
   node.get("recovery_gap_rival_ratio", p.recovery_gap_rival_ratio);
   node.get("recovery_gap_agreement_translation", p.recovery_gap_agreement_translation);
   node.getDegAsRad("recovery_gap_agreement_rotation_deg", p.recovery_gap_agreement_rotation);
+  node.get("recovery_jump_max_steps", p.recovery_jump_max_steps);
+  node.get("recovery_jump_step", p.recovery_jump_step);
   node.get("max_bridge_frames", p.max_bridge_frames);
   node.get("information_scale", p.information_scale);
   node.get("floor_sigma_translation", p.floor_sigma_translation);

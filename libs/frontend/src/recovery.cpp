@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "matcher_stage.hpp"
@@ -168,27 +169,38 @@ bool Recovery::wideGate(Attempt& a) {
 bool Recovery::gapPaths(Attempt& a) {
   const TrackingParams& tp = params_;
   const RecoveryInput& in = a.in;
-  if (wide_gate_ == nullptr || tp.recovery_gap_min_steps <= 0.0 ||
-      in.steps < tp.recovery_gap_min_steps)
-    return false;
+  if (wide_gate_ == nullptr) return false;
+  // A gap the time stamps show: its length is known, the speed is not. A jump they hide (sweeps
+  // lost, stamps rewritten): the guess is one step, the lost steps are unknown.
+  const bool gap = tp.recovery_gap_min_steps > 0.0 && in.steps >= tp.recovery_gap_min_steps;
+  const bool jump = !gap && tp.recovery_jump_max_steps > 0 && in.steps < 1.5;
+  if (!gap && !jump) return false;
+  std::vector<std::pair<double, double>> lengths;  // (steps, speed factor)
+  if (gap) {
+    for (double speed : tp.recovery_gap_speeds) lengths.emplace_back(in.steps, speed);
+  } else {
+    for (int k = tp.recovery_jump_step; k <= tp.recovery_jump_max_steps; k += tp.recovery_jump_step)
+      lengths.emplace_back(1.0 + k, 1.0);
+  }
   const Eigen::Matrix<double, 6, 1> xi = logSE3(in.last_motion);  // translation first
   const Eigen::Vector3d v = xi.head<3>(), w = xi.tail<3>();
   const double turn_per_step = w.norm();
-  const double n = in.steps;
-  std::vector<double> turn_steps{0.0};  // steps of turning before driving straight
-  if (turn_per_step * n > 1e-3) {
-    for (double th = tp.recovery_gap_turn_step; th < n * turn_per_step;
-         th += tp.recovery_gap_turn_step)
-      turn_steps.push_back(th / turn_per_step);
-    turn_steps.push_back(n);
-  }
   AcceptanceBounds bounds = a.recovered;
   bounds.min_inlier_ratio = tp.recovery_gap_relative_inlier_ratio * in.inlier_reference;
   bounds.max_correction = std::numeric_limits<double>::infinity();
   bounds.max_rotation = std::numeric_limits<double>::infinity();
   std::vector<registration::MatchResult> ok;
-  for (double m : turn_steps)
-    for (double speed : tp.recovery_gap_speeds) {
+  std::size_t starts = 0;
+  for (const auto& [n, speed] : lengths) {
+    std::vector<double> turn_steps{0.0};  // steps of turning before driving straight
+    if (turn_per_step * n > 1e-3) {
+      for (double th = tp.recovery_gap_turn_step; th < n * turn_per_step;
+           th += tp.recovery_gap_turn_step)
+        turn_steps.push_back(th / turn_per_step);
+      turn_steps.push_back(n);
+    }
+    for (double m : turn_steps) {
+      ++starts;
       Eigen::Matrix<double, 6, 1> turn;
       turn << speed * m * v, m * w;
       Isometry3d T_start = in.T_last * expSE3(turn);
@@ -204,18 +216,21 @@ bool Recovery::gapPaths(Attempt& a) {
           r = wide_gate_->match(in.source, in.local_map, r.T_target_source);
       }
       const Rejection why = checkAcceptance(r, in.T_guess, bounds);
-      OBM_LOG_DEBUG(kLog, "frame " << a.fr.index << ": gap path turning "
-                                   << m * turn_per_step * kRadToDeg << " deg, speed x" << speed
-                                   << ": inlier ratio " << r.inlier_ratio << ", quality "
-                                   << r.quality << ", " << toString(r.status)
+      OBM_LOG_DEBUG(kLog, "frame " << a.fr.index << ": " << (gap ? "gap" : "jump") << " path of "
+                                   << n << " steps turning " << m * turn_per_step * kRadToDeg
+                                   << " deg, speed x" << speed << ": inlier ratio "
+                                   << r.inlier_ratio << ", quality " << r.quality << ", "
+                                   << toString(r.status)
                                    << (why.rejected() ? " (" + why.detail + ")" : ""));
       // Only registrations that came to rest compete: one stopped by the iteration limit is still
       // sliding (along a street, towards the basin another start reached).
       if (!why.rejected() && r.status == registration::MatchStatus::Ok) ok.push_back(r);
     }
+  }
+  const std::string what = gap ? "gap paths" : "jump paths";
   if (ok.empty()) {
-    a.reason += "; gap paths: no acceptable registration from " +
-                std::to_string(turn_steps.size() * tp.recovery_gap_speeds.size()) + " starts";
+    a.reason +=
+        "; " + what + ": no acceptable registration from " + std::to_string(starts) + " starts";
     return false;
   }
   const auto best = std::max_element(ok.begin(), ok.end(), [](const auto& x, const auto& y) {
@@ -238,8 +253,8 @@ bool Recovery::gapPaths(Attempt& a) {
                 support, ok.size(), rival);
   if (support >= tp.recovery_gap_min_support &&
       rival < tp.recovery_gap_rival_ratio * best->inlier_ratio)
-    return a.take(*best, std::string("the gap paths (") + found + ")");
-  a.reason += std::string("; gap paths ambiguous: ") + found;
+    return a.take(*best, "the " + what + " (" + found + ")");
+  a.reason += "; " + what + " ambiguous: " + found;
   return false;
 }
 

@@ -177,6 +177,12 @@ struct TrackingParams {
   double recovery_gap_rival_ratio = 0.9;                                            ///< (0, 1]
   double recovery_gap_agreement_translation = 0.3;                                  ///< [m]
   double recovery_gap_agreement_rotation = 1.0 * kDegToRad;  ///< [rad] (YAML `_deg`)
+  /// Jump paths: the same step when the time stamps hide the loss (sweeps lost, stamps regular):
+  /// the guess is one step and the lost steps are unknown, so the paths are those of
+  /// 1 + recovery_jump_step, 1 + 2·recovery_jump_step, … up to 1 + recovery_jump_max_steps steps at
+  /// the last speed, judged as above. 0 = never.
+  int recovery_jump_max_steps = 0;
+  int recovery_jump_step = 4;  ///< >= 1
   /// After this many bridged frames in a row the local map is restarted from the current frame
   /// (a keyframe joined to the previous one by a weak bridge edge). >= 1.
   std::size_t max_bridge_frames = 10;
