@@ -425,13 +425,34 @@ TEST(Registrar, ModelTrainedWithoutTheRoadCutsItAtInference) {
   for (const auto& p : r.target_sampled.points) EXPECT_GT(p.z(), -1.4f);
 }
 
+TEST(ModelFile, FuzzFindingDamagedTorchScriptIsACrcErrorBeforeLibTorchParsesIt) {
+  // Found by tests/fuzz (scripts/fuzz.sh model): a model whose TorchScript section has a name
+  // changed ("weight" written over a type). LibTorch 1.13's parser crashed on it under the
+  // sanitizers (SEGV in ScriptTypeParser::parseClassConstant). The archive check rejects the
+  // entry by its CRC-32 before LibTorch sees it.
+  const std::string found =
+      std::string(OBM_SOURCE_DIR) + "/tests/fuzz/regressions/model/torchscript_parser_segv.pt";
+  ASSERT_TRUE(std::filesystem::exists(found));
+  try {
+    loadModel(found);
+    FAIL() << "loaded";
+  } catch (const FormatError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(found), std::string::npos) << what;
+    EXPECT_NE(what.find("code/"), std::string::npos) << what;  // names the entry
+    EXPECT_NE(what.find("CRC-32"), std::string::npos) << what;
+  }
+}
+
 TEST(ModelFile, EveryCorruptionLoadsOrIsAFormatErrorNamingTheFile) {
   // A deterministic sweep over damaged copies of a real model file (the inputs a fuzzer of model
   // files would start from): a byte flipped at 160 offsets spread over the file, and the file cut
-  // at 40 lengths. Each must either load (a flip inside a weight's data leaves a valid archive)
-  // or throw obm::FormatError naming the file; any other exception, or a crash, fails.
+  // at 40 lengths. Each must either load the very same weights (a flip in the archive's padding)
+  // or throw obm::FormatError naming the file; any other exception, or a crash, fails. Before the
+  // archive's CRC-32 check, flips inside weight data loaded as different numbers.
   const std::string dir = obm::test::scratchDir("obmnet_model_corrupt");
-  saveSmallModel(dir + "/m.pt", 5);
+  obmnet::ObmNet original = saveSmallModel(dir + "/m.pt", 5);
+  const auto weights = original->named_parameters();
   std::string bytes;
   {
     std::ifstream in(dir + "/m.pt", std::ios::binary);
@@ -446,6 +467,11 @@ TEST(ModelFile, EveryCorruptionLoadsOrIsAFormatErrorNamingTheFile) {
       ModelMeta meta;
       auto net = loadModel(path, &meta);
       ++loaded;
+      // A copy that loads is the same network: the damage was outside every entry's bytes (the
+      // archive's alignment padding), never a weight that silently changed.
+      const auto got = net->named_parameters();
+      for (const auto& p : weights)
+        EXPECT_TRUE(torch::equal(p.value(), got[p.key()])) << what << ": weight " << p.key();
     } catch (const FormatError& e) {
       ++rejected;
       EXPECT_NE(std::string(e.what()).find("bad.pt"), std::string::npos) << what << ": " << e.what();

@@ -1,10 +1,10 @@
 #include "obm/obmnet/model_io.hpp"
 
 #include <cmath>
-
 #include <filesystem>
 #include <sstream>
 
+#include "archive_check.hpp"
 #include "obm/config/config_node.hpp"
 #include "obm/core/atomic_file.hpp"
 #include "obm/core/errors.hpp"
@@ -42,6 +42,9 @@ void saveModel(const std::string& path, ObmNet& model, const ModelMeta& meta) {
 
 ObmNet loadModel(const std::string& path, ModelMeta* meta) {
   if (!std::filesystem::is_regular_file(path)) throw IoError(path + ": model file not found");
+  // Every entry against its CRC-32 first: LibTorch does not check them (a damaged weight would
+  // load as a wrong number) and its TorchScript parser is not hardened against damaged code.
+  detail::verifyZipArchive(path);
   torch::serialize::InputArchive archive;
   try {
     archive.load_from(path);
