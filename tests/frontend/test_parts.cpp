@@ -289,7 +289,8 @@ TEST(FrontendParts, AfterAGapTheGapPathsFindTheCarWhereTheTurningGuessLostIt) {
   const registration::PreparedTarget local_map(kf.cloud, tracker.icp().icpParams().targetOptions());
   ASSERT_GT((T_guess.inverse() * T_true).translation().norm(), 6.0);
   const auto recover = [&](double min_steps) {
-    tp.recovery_gap_speeds = {1.0, 1.2, 1.4};  // (the wide gate keeps its ±20°: faster)
+    tp.recovery_gap_speed_min = 1.0;  // 1.0, 1.2, 1.4 (10 m of path, 2 m apart): faster
+    tp.recovery_gap_speed_max = 1.4;
     tp.recovery_gap_min_steps = min_steps;
     Recovery recovery(tp, tracker.wideGate(), icp);
     RecoveryInput in{sweep,

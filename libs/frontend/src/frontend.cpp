@@ -238,6 +238,7 @@ struct Frontend::Impl {
                      last_motion, inl_ref, extrapolated};
     in.T_last = T_world_current;
     in.steps = motion.steps(fr.timestamp, p.tracking.use_timestamps);
+    in.last_bridged = !frames.empty() && frames.back().status == TrackingStatus::Bridged;
     recovery.recover(in, rejection, fr, times);
     // After a gap the view overlaps the local map less than the frames before it did: the
     // frames after it are judged against the recovered frame's fit, not the old one.

@@ -1,5 +1,6 @@
 #include "obm/frontend/params.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -141,14 +142,18 @@ void TrackingParams::validate() const {
           "must be >= 0 (0 = never)");
   require(finite(recovery_gap_turn_step) && recovery_gap_turn_step > 0.0,
           "recovery_gap_turn_step_deg", "must be > 0 [deg]");
-  require(!recovery_gap_speeds.empty() &&
-              std::all_of(recovery_gap_speeds.begin(), recovery_gap_speeds.end(),
-                          [](double s) { return std::isfinite(s) && s > 0.0; }),
-          "recovery_gap_speeds", "must be a non-empty list of factors > 0");
+  require(finite(recovery_gap_speed_min) && recovery_gap_speed_min > 0.0, "recovery_gap_speed_min",
+          "must be > 0");
+  require(finite(recovery_gap_speed_max) && recovery_gap_speed_max >= recovery_gap_speed_min,
+          "recovery_gap_speed_max", "must be >= recovery_gap_speed_min");
+  require(std::all_of(recovery_gap_corner_turns.begin(), recovery_gap_corner_turns.end(),
+                      [](double a) { return std::isfinite(a) && a > 0.0; }),
+          "recovery_gap_corner_turns_deg", "must be angles > 0 [deg] (or an empty list)");
+  require(finite(recovery_gap_start_spacing) && recovery_gap_start_spacing > 0.0,
+          "recovery_gap_start_spacing", "must be > 0 [m]");
   require(recovery_gap_relative_inlier_ratio >= 0.0 && recovery_gap_relative_inlier_ratio <= 1.0,
           "recovery_gap_relative_inlier_ratio", "must be in [0, 1]");
   require(recovery_jump_max_steps >= 0, "recovery_jump_max_steps", "must be >= 0 (0 = never)");
-  require(recovery_jump_step >= 1, "recovery_jump_step", "must be >= 1");
   require(recovery_gap_min_support >= 1, "recovery_gap_min_support", "must be >= 1");
   require(recovery_gap_rival_ratio > 0.0 && recovery_gap_rival_ratio <= 1.0,
           "recovery_gap_rival_ratio", "must be in (0, 1]");
@@ -204,14 +209,16 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
                   "recovery_large_turn_relative_inlier_ratio",
                   "recovery_gap_min_steps",
                   "recovery_gap_turn_step_deg",
-                  "recovery_gap_speeds",
+                  "recovery_gap_speed_min",
+                  "recovery_gap_speed_max",
+                  "recovery_gap_start_spacing",
+                  "recovery_gap_corner_turns_deg",
                   "recovery_gap_relative_inlier_ratio",
                   "recovery_gap_min_support",
                   "recovery_gap_rival_ratio",
                   "recovery_gap_agreement_translation",
                   "recovery_gap_agreement_rotation_deg",
                   "recovery_jump_max_steps",
-                  "recovery_jump_step",
                   "max_bridge_frames",
                   "information_scale",
                   "floor_sigma_translation",
@@ -249,14 +256,19 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
            p.recovery_large_turn_relative_inlier_ratio);
   node.get("recovery_gap_min_steps", p.recovery_gap_min_steps);
   node.getDegAsRad("recovery_gap_turn_step_deg", p.recovery_gap_turn_step);
-  node.get("recovery_gap_speeds", p.recovery_gap_speeds);
+  node.get("recovery_gap_speed_min", p.recovery_gap_speed_min);
+  node.get("recovery_gap_speed_max", p.recovery_gap_speed_max);
+  node.get("recovery_gap_start_spacing", p.recovery_gap_start_spacing);
+  if (node.has("recovery_gap_corner_turns_deg")) {
+    node.get("recovery_gap_corner_turns_deg", p.recovery_gap_corner_turns);
+    for (double& a : p.recovery_gap_corner_turns) a *= kDegToRad;
+  }
   node.get("recovery_gap_relative_inlier_ratio", p.recovery_gap_relative_inlier_ratio);
   node.get("recovery_gap_min_support", p.recovery_gap_min_support);
   node.get("recovery_gap_rival_ratio", p.recovery_gap_rival_ratio);
   node.get("recovery_gap_agreement_translation", p.recovery_gap_agreement_translation);
   node.getDegAsRad("recovery_gap_agreement_rotation_deg", p.recovery_gap_agreement_rotation);
   node.get("recovery_jump_max_steps", p.recovery_jump_max_steps);
-  node.get("recovery_jump_step", p.recovery_jump_step);
   node.get("max_bridge_frames", p.max_bridge_frames);
   node.get("information_scale", p.information_scale);
   node.get("floor_sigma_translation", p.floor_sigma_translation);

@@ -160,37 +160,52 @@ bool Recovery::wideGate(Attempt& a) {
 /// continued for the whole gap, at the same speed. A car leaves a turn and changes speed, so the
 /// hypotheses are the paths that turn at the last turn rate for part of the gap (every
 /// recovery_gap_turn_step of heading, up to the whole extrapolated turn) and drive straight for
-/// the rest, at the speeds of recovery_gap_speeds; each starts the wide-gate ICP against the local
-/// map. The guess bounds nothing here (it may be tens of metres and degrees off); instead the
-/// registrations are judged against one another: the fittest acceptable one is taken when at
+/// the rest, at speeds from recovery_gap_speed_min to _max; each starts the wide-gate ICP against
+/// the local map. The guess bounds nothing here (it may be tens of metres and degrees off); instead
+/// the registrations are judged against one another: the fittest acceptable one is taken when at
 /// least recovery_gap_min_support starts reach it (a basin, not one start's accident) and no
 /// acceptable registration elsewhere pairs nearly as many points (recovery_gap_rival_ratio: a
 /// street of repeated blocks offers several poses that fit alike).
 bool Recovery::gapPaths(Attempt& a) {
   const TrackingParams& tp = params_;
   const RecoveryInput& in = a.in;
-  if (wide_gate_ == nullptr) return false;
+  if (wide_gate_ == nullptr || in.last_bridged) return false;
   // A gap the time stamps show: its length is known, the speed is not. A jump they hide (sweeps
   // lost, stamps rewritten): the guess is one step, the lost steps are unknown.
   const bool gap = tp.recovery_gap_min_steps > 0.0 && in.steps >= tp.recovery_gap_min_steps;
   const bool jump = !gap && tp.recovery_jump_max_steps > 0 && in.steps < 1.5;
   if (!gap && !jump) return false;
-  std::vector<std::pair<double, double>> lengths;  // (steps, speed factor)
-  if (gap) {
-    for (double speed : tp.recovery_gap_speeds) lengths.emplace_back(in.steps, speed);
-  } else {
-    for (int k = tp.recovery_jump_step; k <= tp.recovery_jump_max_steps; k += tp.recovery_jump_step)
-      lengths.emplace_back(1.0 + k, 1.0);
-  }
   const Eigen::Matrix<double, 6, 1> xi = logSE3(in.last_motion);  // translation first
   const Eigen::Vector3d v = xi.head<3>(), w = xi.tail<3>();
+  // The path lengths, so that the ends of neighbouring paths are at most
+  // recovery_gap_start_spacing apart (ICP's basin along a street is a few metres).
+  const double step_length = std::max(v.norm(), 1e-3);
+  std::vector<std::pair<double, double>> lengths;  // (steps, speed factor)
+  if (gap) {
+    const double lo = tp.recovery_gap_speed_min, hi = tp.recovery_gap_speed_max;
+    const int k = std::max(1, static_cast<int>(std::ceil((hi - lo) * in.steps * step_length /
+                                                         tp.recovery_gap_start_spacing)));
+    for (int i = 0; i <= k; ++i) lengths.emplace_back(in.steps, lo + (hi - lo) * i / k);
+  } else {
+    const int every =
+        std::max(1, static_cast<int>(std::floor(tp.recovery_gap_start_spacing / step_length)));
+    for (int lost = every; lost <= tp.recovery_jump_max_steps; lost += every)
+      lengths.emplace_back(1.0 + lost, 1.0);
+  }
   const double turn_per_step = w.norm();
   AcceptanceBounds bounds = a.recovered;
   bounds.min_inlier_ratio = tp.recovery_gap_relative_inlier_ratio * in.inlier_reference;
   bounds.max_correction = std::numeric_limits<double>::infinity();
   bounds.max_rotation = std::numeric_limits<double>::infinity();
-  std::vector<registration::MatchResult> ok;
-  std::size_t starts = 0;
+  // The starts: the turn continued for part of the path; after a straight stretch (no turn to
+  // continue) also a corner taken half-way, either side (a street corner inside the gap).
+  struct Start {
+    Isometry3d T;
+    double n, speed, turn;  // steps, speed factor, [rad] heading change
+  };
+  std::vector<Start> starts;
+  const bool straight = turn_per_step * in.steps < tp.recovery_gap_turn_step;
+  const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
   for (const auto& [n, speed] : lengths) {
     std::vector<double> turn_steps{0.0};  // steps of turning before driving straight
     if (turn_per_step * n > 1e-3) {
@@ -200,11 +215,27 @@ bool Recovery::gapPaths(Attempt& a) {
       turn_steps.push_back(n);
     }
     for (double m : turn_steps) {
-      ++starts;
       Eigen::Matrix<double, 6, 1> turn;
       turn << speed * m * v, m * w;
-      Isometry3d T_start = in.T_last * expSE3(turn);
-      T_start.translation() += T_start.linear() * (speed * (n - m) * v);
+      Isometry3d T = in.T_last * expSE3(turn);
+      T.translation() += T.linear() * (speed * (n - m) * v);
+      starts.push_back({T, n, speed, m * turn_per_step});
+    }
+    if (straight)
+      for (double corner : tp.recovery_gap_corner_turns)
+        for (double sign : {1.0, -1.0}) {
+          Isometry3d T = in.T_last;
+          T.translation() += T.linear() * (0.5 * speed * n * v);
+          T.linear() = T.linear() * Eigen::AngleAxisd(sign * corner, up).toRotationMatrix();
+          T.translation() += T.linear() * (0.5 * speed * n * v);
+          starts.push_back({T, n, speed, sign * corner});
+        }
+  }
+  std::vector<registration::MatchResult> ok;
+  for (const Start& st : starts) {
+    {
+      const Isometry3d& T_start = st.T;
+      const double n = st.n, speed = st.speed;
       registration::MatchResult r;
       {
         TimedStage s(a.times, Stage::Icp);
@@ -216,12 +247,11 @@ bool Recovery::gapPaths(Attempt& a) {
           r = wide_gate_->match(in.source, in.local_map, r.T_target_source);
       }
       const Rejection why = checkAcceptance(r, in.T_guess, bounds);
-      OBM_LOG_DEBUG(kLog, "frame " << a.fr.index << ": " << (gap ? "gap" : "jump") << " path of "
-                                   << n << " steps turning " << m * turn_per_step * kRadToDeg
-                                   << " deg, speed x" << speed << ": inlier ratio "
-                                   << r.inlier_ratio << ", quality " << r.quality << ", "
-                                   << toString(r.status)
-                                   << (why.rejected() ? " (" + why.detail + ")" : ""));
+      OBM_LOG_DEBUG(
+          kLog, "frame " << a.fr.index << ": " << (gap ? "gap" : "jump") << " path of " << n
+                         << " steps turning " << st.turn * kRadToDeg << " deg, speed x" << speed
+                         << ": inlier ratio " << r.inlier_ratio << ", quality " << r.quality << ", "
+                         << toString(r.status) << (why.rejected() ? " (" + why.detail + ")" : ""));
       // Only registrations that came to rest compete: one stopped by the iteration limit is still
       // sliding (along a street, towards the basin another start reached).
       if (!why.rejected() && r.status == registration::MatchStatus::Ok) ok.push_back(r);
@@ -229,8 +259,8 @@ bool Recovery::gapPaths(Attempt& a) {
   }
   const std::string what = gap ? "gap paths" : "jump paths";
   if (ok.empty()) {
-    a.reason +=
-        "; " + what + ": no acceptable registration from " + std::to_string(starts) + " starts";
+    a.reason += "; " + what + ": no acceptable registration from " + std::to_string(starts.size()) +
+                " starts";
     return false;
   }
   const auto best = std::max_element(ok.begin(), ok.end(), [](const auto& x, const auto& y) {

@@ -62,6 +62,8 @@ struct RecoveryInput {
   /// it (1 without a gap in the time stamps; the gap_paths step runs from it over a gap).
   Isometry3d T_last = Isometry3d::Identity();
   double steps = 1.0;
+  /// The frame before was bridged: its pose is a guess, and no path starts from it.
+  bool last_bridged = false;
 };
 
 class Recovery {

@@ -161,28 +161,36 @@ struct TrackingParams {
   /// nothing): the constant-velocity guess extrapolates the turn rate over the whole gap (a car in
   /// a turn 4 s long at 32 deg/s is guessed 130 deg round, 15 m along the arc), so the guess is no
   /// start. The hypotheses are the paths that turn at the last rate for part of the gap (every
-  /// turn_step of heading up to the whole turn) then drive straight, at each of the speed
-  /// factors; each starts the wide-gate ICP against the local map. The fittest acceptable
-  /// registration (recovery_min_quality, relative_inlier_ratio below: the car has driven into
-  /// space the local map has not seen, so a right registration pairs fewer points than the
+  /// turn_step of heading up to the whole turn) then drive straight, at speeds from speed_min to
+  /// speed_max × the last one; each starts the wide-gate ICP against the local map. The fittest
+  /// acceptable registration (recovery_min_quality, relative_inlier_ratio below: the car has driven
+  /// into space the local map has not seen, so a right registration pairs fewer points than the
   /// frames before the gap; no correction bound) is taken when min_support starts reach it (within
   /// the agreement tolerances) and no acceptable registration elsewhere reaches rival_ratio of its
   /// inlier ratio. The step runs when the guess extrapolates the last motion over at least this
   /// many frame intervals (a gap of min_steps − 1 frames); 0 = never.
   double recovery_gap_min_steps = 0.0;
   double recovery_gap_turn_step = 15.0 * kDegToRad;  ///< [rad] (YAML `_deg`)
-  std::vector<double> recovery_gap_speeds{0.6, 0.8, 1.0, 1.2, 1.4, 1.6, 1.8, 2.0};  ///< factors > 0
+  double recovery_gap_speed_min = 0.6;               ///< × the last speed, > 0
+  double recovery_gap_speed_max = 2.0;               ///< × the last speed, >= min
+  /// [m] the speeds between min and max (and, for jumps, the numbers of lost sweeps) are spread
+  /// so that the ends of neighbouring paths are at most this far apart. > 0
+  double recovery_gap_start_spacing = 2.0;
+  /// [rad] after a straight stretch (less than turn_step to continue over the gap) the paths
+  /// also take a corner half-way, by each of these angles either side (YAML `_deg`).
+  std::vector<double> recovery_gap_corner_turns{30.0 * kDegToRad, 60.0 * kDegToRad,
+                                                90.0 * kDegToRad};
   double recovery_gap_relative_inlier_ratio = 0.4;                                  ///< [0, 1]
   int recovery_gap_min_support = 2;                                                 ///< >= 1
   double recovery_gap_rival_ratio = 0.9;                                            ///< (0, 1]
   double recovery_gap_agreement_translation = 0.3;                                  ///< [m]
   double recovery_gap_agreement_rotation = 1.0 * kDegToRad;  ///< [rad] (YAML `_deg`)
   /// Jump paths: the same step when the time stamps hide the loss (sweeps lost, stamps regular):
-  /// the guess is one step and the lost steps are unknown, so the paths are those of
-  /// 1 + recovery_jump_step, 1 + 2·recovery_jump_step, … up to 1 + recovery_jump_max_steps steps at
-  /// the last speed, judged as above. 0 = never.
+  /// the guess is one step and the number of lost sweeps is unknown, so the paths are those of
+  /// 1 + k lost steps at the last speed, k up to recovery_jump_max_steps (spaced by
+  /// recovery_gap_start_spacing), judged as above. 0 = never. Neither step starts from a bridged
+  /// frame (its pose is a guess).
   int recovery_jump_max_steps = 0;
-  int recovery_jump_step = 4;  ///< >= 1
   /// After this many bridged frames in a row the local map is restarted from the current frame
   /// (a keyframe joined to the previous one by a weak bridge edge). >= 1.
   std::size_t max_bridge_frames = 10;
