@@ -73,11 +73,11 @@ registration::MatchResult goodMatch() {
 /// half its walls): two facades, a shorter one and pillars at irregular places, a coarse road.
 PointCloud cornerCloud() {
   PointCloud corner;
-  for (double x = -20.0; x <= 20.0; x += 1.0)
-    for (double y = -20.0; y <= 20.0; y += 1.0)
+  for (double x = -20.0; x <= 20.0; x += 1.5)
+    for (double y = -20.0; y <= 20.0; y += 1.5)
       corner.push_back(Vector3f(static_cast<float>(x), static_cast<float>(y), -1.5f));
-  for (double s = -20.0; s <= 20.0; s += 0.4)
-    for (double z = -1.0; z <= 6.0; z += 0.4) {
+  for (double s = -20.0; s <= 20.0; s += 0.6)
+    for (double z = -1.0; z <= 6.0; z += 0.6) {
       corner.push_back(Vector3f(-12.0f, static_cast<float>(s), static_cast<float>(z)));
       if (s < 5.0) corner.push_back(Vector3f(14.0f, static_cast<float>(s), static_cast<float>(z)));
       if (s < 0.0) corner.push_back(Vector3f(static_cast<float>(s), 17.0f, static_cast<float>(z)));
@@ -344,6 +344,7 @@ TEST(FrontendParts, AJumpTheStampsHideIsFoundAmongThePathsOfLostSweeps) {
   const registration::PreparedTarget local_map(kf.cloud, tracker.icp().icpParams().targetOptions());
   const auto recover = [&](int max_steps) {
     tp.recovery_jump_max_steps = max_steps;
+    tp.recovery_gap_corner_turns.clear();  // (a straight drive: the corners only cost time)
     Recovery recovery(tp, tracker.wideGate(), icp);
     RecoveryInput in{sweep, T_guess, local_map, kf, 4, last_motion, 0.9, 0.0};
     in.T_last = T_last;
