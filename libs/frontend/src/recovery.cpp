@@ -92,10 +92,16 @@ void Recovery::recover(const RecoveryInput& in, const Rejection& rejection, Fram
   fr.reason = a.reason + a.trailer;
 }
 
-bool Recovery::agree(const Isometry3d& T_a, const Isometry3d& T_b) const {
+/// T_a and T_b within `translation` [m] and `rotation` [rad] of each other.
+static bool withinOf(const Isometry3d& T_a, const Isometry3d& T_b, double translation,
+                     double rotation) {
   const Isometry3d d = T_a.inverse() * T_b;
-  return d.translation().norm() <= params_.recovery_agreement_translation &&
-         rotationAngle(d.linear()) <= params_.recovery_agreement_rotation;
+  return d.translation().norm() <= translation && rotationAngle(d.linear()) <= rotation;
+}
+
+bool Recovery::agree(const Isometry3d& T_a, const Isometry3d& T_b) const {
+  return withinOf(T_a, T_b, params_.recovery_agreement_translation,
+                  params_.recovery_agreement_rotation);
 }
 
 /// Hypotheses: the guess, then the guess turned about the axis of the last motion (a car's
@@ -233,9 +239,8 @@ bool Recovery::gapPaths(Attempt& a) {
   }
   std::vector<registration::MatchResult> ok;
   for (const Start& st : starts) {
+    const Isometry3d& T_start = st.T;
     {
-      const Isometry3d& T_start = st.T;
-      const double n = st.n, speed = st.speed;
       registration::MatchResult r;
       {
         TimedStage s(a.times, Stage::Icp);
@@ -248,8 +253,8 @@ bool Recovery::gapPaths(Attempt& a) {
       }
       const Rejection why = checkAcceptance(r, in.T_guess, bounds);
       OBM_LOG_DEBUG(
-          kLog, "frame " << a.fr.index << ": " << (gap ? "gap" : "jump") << " path of " << n
-                         << " steps turning " << st.turn * kRadToDeg << " deg, speed x" << speed
+          kLog, "frame " << a.fr.index << ": " << (gap ? "gap" : "jump") << " path of " << st.n
+                         << " steps turning " << st.turn * kRadToDeg << " deg, speed x" << st.speed
                          << ": inlier ratio " << r.inlier_ratio << ", quality " << r.quality << ", "
                          << toString(r.status) << (why.rejected() ? " (" + why.detail + ")" : ""));
       // Only registrations that came to rest compete: one stopped by the iteration limit is still
@@ -269,7 +274,8 @@ bool Recovery::gapPaths(Attempt& a) {
   int support = 0;
   double rival = 0.0;
   for (const registration::MatchResult& r : ok) {
-    if (gapAgree(best->T_target_source, r.T_target_source))
+    if (withinOf(best->T_target_source, r.T_target_source, tp.recovery_gap_agreement_translation,
+                 tp.recovery_gap_agreement_rotation))
       ++support;
     else
       rival = std::max(rival, r.inlier_ratio);
@@ -286,12 +292,6 @@ bool Recovery::gapPaths(Attempt& a) {
     return a.take(*best, "the " + what + " (" + found + ")");
   a.reason += "; " + what + " ambiguous: " + found;
   return false;
-}
-
-bool Recovery::gapAgree(const Isometry3d& T_a, const Isometry3d& T_b) const {
-  const Isometry3d d = T_a.inverse() * T_b;
-  return d.translation().norm() <= params_.recovery_gap_agreement_translation &&
-         rotationAngle(d.linear()) <= params_.recovery_gap_agreement_rotation;
 }
 
 /// The scan matcher against the last keyframe, from the same guess (pre-aligned for the

@@ -113,7 +113,6 @@ class Recovery {
   bool confirmedJump(Attempt& a);
 
   bool agree(const Isometry3d& T_a, const Isometry3d& T_b) const;
-  bool gapAgree(const Isometry3d& T_a, const Isometry3d& T_b) const;
 
   TrackingParams params_;
   const registration::IcpMatcher* wide_gate_;
