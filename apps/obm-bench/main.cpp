@@ -2,21 +2,22 @@
 // peers, on generated object pairs or on a folder of pairs. See docs/obm-bench.md.
 #include <CLI/CLI.hpp>
 #include <cstdio>
-#include <numeric>
 #include <iostream>
+#include <numeric>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "../common/cli.hpp"
-#include "obm/datasets/object_source.hpp"
-#include "obm/datasets/scan_source.hpp"
 #include "../common/paths.hpp"
 #include "bench.hpp"
 #include "obm/config/config_node.hpp"
 #include "obm/core/atomic_file.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
+#include "obm/datasets/object_source.hpp"
+#include "obm/datasets/scan_source.hpp"
 #include "obm/obmnet/registrar.hpp"
 #include "obm/registration/icp.hpp"
 #include "obm/registration/obmnet_matcher.hpp"
@@ -110,12 +111,13 @@ registration::IcpParams objectRefineIcpParams(double unit, double polish) {
   return p;
 }
 
-std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(const std::string& model,
-                                                                 int threads, int num_points,
-                                                                 int denoise, int soft_sampling,
-                                                                 double unit, double polish,
-                                                                 double overlap_keep) {
+std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(
+    const std::string& model, int threads, int num_points, int denoise, int soft_sampling,
+    double unit, double polish, double overlap_keep, int refine_hypotheses = 1,
+    int init_headings = 0) {
   registration::ObmNetMatcherParams p;
+  p.refine_hypotheses = refine_hypotheses;
+  p.init_headings = init_headings;
   p.denoise_neighbors = denoise;
   p.soft_sampling = soft_sampling;
   p.model_path = model;
@@ -126,6 +128,29 @@ std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(const std::stri
   p.overlap_stage_keep = overlap_keep;
   return std::make_shared<registration::ObmNetIcpMatcher>(p, objectRefineIcpParams(unit, polish),
                                                           objectConfidenceParams(unit));
+}
+
+/// The classical counterpart of the network's yaw hypotheses (`icp-yaw4`): ICP from the identity
+/// turned by 0°, 90°, 180° and 270° about the source frame's z axis (the sensor's vertical for a
+/// sweep), keeping the result that pairs the most source points within the final gate. Shows what
+/// the network's poses add over trying the same headings blindly.
+bench::Method icpYawMethod(std::shared_ptr<const registration::ScanMatcher> icp, int headings) {
+  return {"icp-yaw" + std::to_string(headings),
+          [icp, headings](const PointCloud& s, const PointCloud& t) {
+            std::optional<registration::MatchResult> best;
+            for (int h = 0; h < headings; ++h) {
+              const Isometry3d T0 =
+                  makeIsometry(Eigen::AngleAxisd(2.0 * 3.14159265358979323846 * h / headings,
+                                                 Eigen::Vector3d::UnitZ())
+                                   .toRotationMatrix(),
+                               Eigen::Vector3d::Zero());
+              registration::MatchResult r = icp->match(s, t, T0);
+              if (r.status == registration::MatchStatus::TooFewCorrespondences) continue;
+              if (!best || r.num_correspondences > best->num_correspondences) best = std::move(r);
+            }
+            if (!best) best = icp->match(s, t, Isometry3d::Identity());
+            return matchResult(*best);
+          }};
 }
 
 /// Both starts a user without a prior has: the network's pose (then the refinement, as
@@ -468,6 +493,18 @@ int main(int argc, char** argv) {
       const auto icp = objectIcpMatcher(unit, polish);
       methods.push_back(matcherMethod("obmnet+icp", net_icp));
       methods.push_back(matcherMethod("icp", icp));
+      // Every yaw hypothesis of the network refined by ICP, and its classical counterpart (the
+      // same headings tried blindly): for sweeps without a heading prior (loops).
+      if (protocol == "kitti" || !methods_arg.empty()) {
+        methods.push_back(matcherMethod(
+            "obmnet+icp-all", obmnetIcpMatcher(model, threads, num_points, denoise, soft_sampling,
+                                               unit, polish, overlap_keep, 0)));
+        methods.push_back(icpYawMethod(icp, 4));
+        methods.push_back(
+            matcherMethod("obmnet+icp-all+yaw4",
+                          obmnetIcpMatcher(model, threads, num_points, denoise, soft_sampling, unit,
+                                           polish, overlap_keep, 0, 4)));
+      }
       // The competition with the identity start helps only where the identity is a meaningful
       // prior (consecutive sweeps in their sensor frames); on pairs with a random rotation the
       // identity's ICP often pairs more points in a wrong pose (docs/obm-bench.md), so it is

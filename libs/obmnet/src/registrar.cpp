@@ -158,6 +158,7 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
   int best = 0;
   double best_fit = -1.0;
   std::vector<Isometry3d> T_hat(static_cast<std::size_t>(H));
+  std::vector<double> fit_of(static_cast<std::size_t>(H), 0.0);
   for (int h = 0; h < H; ++h) {
     const auto R = o.R[h].to(torch::kFloat64).contiguous();
     const auto t = o.t[h].to(torch::kFloat64).contiguous();
@@ -169,6 +170,7 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
                                                          t[2].item<double>())) *
         turn(Rz[static_cast<std::size_t>(h)]);
     const double fit = fitness(T_hat[static_cast<std::size_t>(h)]);
+    fit_of[static_cast<std::size_t>(h)] = fit;
     if (fit > best_fit) {
       best_fit = fit;
       best = h;
@@ -186,12 +188,27 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
       r.kept_start = true;
     }
   }
-  r.alpha = o.alpha[best].item<double>();
-  r.overlap = o.overlap[best].item<double>();
-  const auto w = o.weights[best].contiguous();
-  const auto m = o.membership[best].contiguous();
-  r.inlier_weights.assign(w.data_ptr<float>(), w.data_ptr<float>() + w.numel());
-  r.overlap_membership.assign(m.data_ptr<float>(), m.data_ptr<float>() + m.numel());
+  r.hypotheses.resize(static_cast<std::size_t>(H));
+  for (int h = 0; h < H; ++h) {
+    YawHypothesis& y = r.hypotheses[static_cast<std::size_t>(h)];
+    y.T_target_source = norm.denormalize(T_hat[static_cast<std::size_t>(h)]);
+    y.yaw_deg = 360.0 * h / H;
+    y.fitness = fit_of[static_cast<std::size_t>(h)];
+    y.alpha = o.alpha[h].item<double>();
+    y.overlap = o.overlap[h].item<double>();
+    const auto w = o.weights[h].contiguous();
+    const auto m = o.membership[h].contiguous();
+    y.inlier_weights.assign(w.data_ptr<float>(), w.data_ptr<float>() + w.numel());
+    y.overlap_membership.assign(m.data_ptr<float>(), m.data_ptr<float>() + m.numel());
+  }
+  // Fittest first; ties keep the yaw order, so hypotheses.front() is the pass `best` chose.
+  std::stable_sort(
+      r.hypotheses.begin(), r.hypotheses.end(),
+      [](const YawHypothesis& a, const YawHypothesis& b) { return a.fitness > b.fitness; });
+  r.alpha = r.hypotheses.front().alpha;
+  r.overlap = r.hypotheses.front().overlap;
+  r.inlier_weights = r.hypotheses.front().inlier_weights;
+  r.overlap_membership = r.hypotheses.front().overlap_membership;
   r.runtime_ms = timer.ms();
   return r;
 }

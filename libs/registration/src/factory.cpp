@@ -10,10 +10,9 @@ namespace obm::registration {
 
 ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   ObmNetMatcherParams p;
-  node.checkKeys(
-      {"model_path", "num_points", "threads", "seed", "denoise_neighbors", "soft_sampling", "pre_align",
-       "keep_init_if_better", "overlap_stage_keep", "overlap_stage_gate_factor",
-       "yaw_hypotheses"});
+  node.checkKeys({"model_path", "num_points", "threads", "seed", "denoise_neighbors",
+                  "soft_sampling", "pre_align", "keep_init_if_better", "overlap_stage_keep",
+                  "overlap_stage_gate_factor", "yaw_hypotheses", "refine_hypotheses"});
   p.model_path = node.required<std::string>("model_path");
   node.get("num_points", p.num_points);
   node.get("threads", p.threads);
@@ -26,6 +25,12 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   node.get("overlap_stage_gate_factor", p.overlap_stage_gate_factor);
   node.get("yaw_hypotheses", p.yaw_hypotheses);
   if (p.yaw_hypotheses < 0) throw ConfigError(node.where("yaw_hypotheses") + ": must be >= 0");
+  node.get("refine_hypotheses", p.refine_hypotheses);
+  if (p.refine_hypotheses < 0)
+    throw ConfigError(node.where("refine_hypotheses") + ": must be >= 0 (0 = all)");
+  node.get("init_headings", p.init_headings);
+  if (p.init_headings < 0)
+    throw ConfigError(node.where("init_headings") + ": must be >= 0 (0 = off)");
   if (!(p.overlap_stage_keep >= 0.0 && p.overlap_stage_keep <= 1.0))
     throw ConfigError(node.where("overlap_stage_keep") + ": must be in [0, 1]");
   if (!(p.overlap_stage_gate_factor >= 1.0))

@@ -46,7 +46,38 @@ struct NetworkStage {
   double alpha = 1.0, overlap = 0.0;
   std::vector<Vector3f> sampled;  ///< the network's source points, source frame
   std::vector<double> prior;      ///< w_i·(1 + α·m_i): the network's SVD weights (docs/model.md)
+  /// The same for every yaw hypothesis, fittest first (the fields above are the first's).
+  struct Hypothesis {
+    Isometry3d T_target_source = Isometry3d::Identity();
+    double alpha = 1.0, overlap = 0.0;
+    std::vector<double> prior;
+  };
+  std::vector<Hypothesis> hypotheses;
+
+  /// This stage as if hypothesis k had been the fittest.
+  NetworkStage withHypothesis(std::size_t k) const {
+    NetworkStage s = *this;
+    s.T_target_source = hypotheses[k].T_target_source;
+    s.alpha = hypotheses[k].alpha;
+    s.overlap = hypotheses[k].overlap;
+    s.prior = hypotheses[k].prior;
+    return s;
+  }
 };
+
+/// The network's SVD weights ω_i = w_i·(1 + α·m_i) (docs/model.md, step 8), with m_i the
+/// membership of sampled source point i in the sampled overlap region.
+std::vector<double> svdWeights(const std::vector<float>& inlier_weights,
+                               const std::vector<float>& membership, double alpha, std::size_t n) {
+  std::vector<double> prior;
+  prior.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double w = i < inlier_weights.size() ? double(inlier_weights[i]) : 1.0;
+    const double m = i < membership.size() ? std::clamp(double(membership[i]), 0.0, 1.0) : 0.0;
+    prior.push_back(w * (1.0 + alpha * m));
+  }
+  return prior;
+}
 
 NetworkStage runNetwork(const obmnet::ObmNetRegistrar& reg, const ObmNetMatcherParams& p,
                         const PointCloud& source, const PreparedTarget& target,
@@ -77,17 +108,16 @@ NetworkStage runNetwork(const obmnet::ObmNetRegistrar& reg, const ObmNetMatcherP
   s.overlap = std::clamp(r.overlap, 0.0, 1.0);
   const std::size_t n = r.source_indices.size();
   s.sampled.reserve(n);
-  s.prior.reserve(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    // Indices refer to the cloud given to align(), which has the source's point order.
-    s.sampled.push_back(source.points[r.source_indices[i]]);
-    const double w = i < r.inlier_weights.size() ? double(r.inlier_weights[i]) : 1.0;
-    // The network's own SVD weights (docs/model.md, step 8): ω_i = w_i·(1 + α·m_i) with m_i the
-    // membership of point i in the sampled overlap region.
-    const double m = i < r.overlap_membership.size()
-                         ? std::clamp(double(r.overlap_membership[i]), 0.0, 1.0)
-                         : 0.0;
-    s.prior.push_back(w * (1.0 + r.alpha * m));
+  // Indices refer to the cloud given to align(), which has the source's point order.
+  for (std::size_t i = 0; i < n; ++i) s.sampled.push_back(source.points[r.source_indices[i]]);
+  s.prior = svdWeights(r.inlier_weights, r.overlap_membership, r.alpha, n);
+  for (const auto& h : r.hypotheses) {
+    NetworkStage::Hypothesis y;
+    y.T_target_source = p.pre_align ? h.T_target_source * T_init : h.T_target_source;
+    y.alpha = h.alpha;
+    y.overlap = std::clamp(h.overlap, 0.0, 1.0);
+    y.prior = svdWeights(h.inlier_weights, h.overlap_membership, h.alpha, n);
+    if (y.T_target_source.matrix().allFinite()) s.hypotheses.push_back(std::move(y));
   }
   return s;
 }
@@ -238,6 +268,45 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
          staged.num_correspondences > icp.num_correspondences))
       icp = std::move(staged);
   }
+  // More hypotheses verified by ICP (refine_hypotheses): the network's fitness on its keypoints
+  // can prefer a wrong heading where ICP from the right one pairs more of the whole source.
+  std::size_t winner = 0;
+  const std::size_t n_refine =
+      impl_->params.refine_hypotheses == 0
+          ? net.hypotheses.size()
+          : std::min(net.hypotheses.size(),
+                     static_cast<std::size_t>(std::max(1, impl_->params.refine_hypotheses)));
+  for (std::size_t k = 1; k < n_refine; ++k) {
+    IcpOutcome other = runIcp(source.points, target, net.hypotheses[k].T_target_source, icp_);
+    if (other.status != MatchStatus::TooFewCorrespondences &&
+        (icp.status == MatchStatus::TooFewCorrespondences ||
+         other.num_correspondences > icp.num_correspondences)) {
+      icp = std::move(other);
+      winner = k;
+    }
+  }
+  // Blind headings from the guess (init_headings): the classical starts compete on the same count.
+  bool heading_won = false;
+  const int headings = impl_->params.init_headings;
+  for (int h = 0; h < headings; ++h) {
+    const Isometry3d turn =
+        makeIsometry(Eigen::AngleAxisd(360.0 * kDegToRad * h / headings, Eigen::Vector3d::UnitZ())
+                         .toRotationMatrix(),
+                     Eigen::Vector3d::Zero());
+    IcpOutcome other = runIcp(source.points, target, T_target_source_init * turn, icp_);
+    if (other.status != MatchStatus::TooFewCorrespondences &&
+        (icp.status == MatchStatus::TooFewCorrespondences ||
+         other.num_correspondences > icp.num_correspondences)) {
+      icp = std::move(other);
+      heading_won = true;
+    }
+  }
+  if (heading_won)
+    OBM_LOG_DEBUG("registration",
+                  "obmnet+icp: a blind heading from the guess paired the most points");
+  else if (winner > 0)
+    return withNetworkConfidence(icp.toMatchResult(), net.withHypothesis(winner), source, target,
+                                 icp_, confidence_);
   return withNetworkConfidence(icp.toMatchResult(), net, source, target, icp_, confidence_);
 }
 

@@ -13,6 +13,17 @@
 
 namespace obm::obmnet {
 
+/// One yaw hypothesis of a registration (ObmNetRegistrar::Options::yaw_hypotheses): the network's
+/// pose from that start and what the network said with it.
+struct YawHypothesis {
+  Isometry3d T_target_source = Isometry3d::Identity();  ///< input frames, like the result's
+  double yaw_deg = 0.0;  ///< the turn of the source before the network [deg]
+  double fitness = 0.0;  ///< RegistrationResult::fitness of this pose
+  double alpha = 1.0;    ///< α of this pass
+  double overlap = 1.0;  ///< overlap estimate of this pass
+  std::vector<float> inlier_weights, overlap_membership;  ///< as in RegistrationResult
+};
+
 /// Result of one OBMNet registration.
 struct RegistrationResult {
   Isometry3d T_target_source = Isometry3d::Identity();  ///< p_target = T · p_source
@@ -38,6 +49,9 @@ struct RegistrationResult {
   /// (the pose it was given: the identity of the clouds as passed, after the pair
   /// normalisation), which is returned instead.
   bool kept_start = false;
+  /// Every yaw hypothesis, fittest first (one entry with a single hypothesis), for callers that
+  /// verify more than the fittest (ObmNetIcpMatcher's refine_hypotheses).
+  std::vector<YawHypothesis> hypotheses;
 };
 
 /// Registers point clouds with a trained OBMNet model.
