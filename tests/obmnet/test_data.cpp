@@ -402,6 +402,46 @@ TEST(Registrar, KeepsItsStartWhenTheStartIsFitterThanTheNetwork) {
   EXPECT_FALSE(plain.T_target_source.isApprox(Isometry3d::Identity(), 1e-3));
 }
 
+TEST(Registrar, ReportsEveryYawHypothesisFittestFirst) {
+  // With H yaw hypotheses the result lists all H network poses, fittest first; the first is the
+  // returned pose with its α, overlap and weights, and each pose's fitness is the score that
+  // would be reported had it been chosen (the hypotheses differ: the source was turned).
+  obmnet::ObmNetConfig c;
+  c.n_iters = 2;
+  const std::string model = saveRegistrarModel(obm::test::scratchDir("obmnet_registrar_yaw"), c, 4);
+  const auto src = sphereCloud(300, 11);
+  PointCloud tgt;
+  for (const auto& p : src.points)
+    if (p.x() > -0.2f) tgt.points.push_back(p);
+  obmnet::ObmNetRegistrar::Options o{model, 0, 1, 0};
+  o.yaw_hypotheses = 4;
+  const auto r = obmnet::ObmNetRegistrar(o).align(src, tgt);
+  ASSERT_EQ(r.hypotheses.size(), 4u);
+  std::vector<double> yaws;
+  for (std::size_t h = 0; h < r.hypotheses.size(); ++h) {
+    const auto& y = r.hypotheses[h];
+    yaws.push_back(y.yaw_deg);
+    if (h > 0) EXPECT_LE(y.fitness, r.hypotheses[h - 1].fitness) << "hypothesis " << h;
+    EXPECT_EQ(y.inlier_weights.size(), r.inlier_weights.size());
+    EXPECT_EQ(y.overlap_membership.size(), r.overlap_membership.size());
+    EXPECT_GT(y.alpha, 0.0);
+    EXPECT_NEAR(y.T_target_source.linear().determinant(), 1.0, 1e-6);
+  }
+  std::sort(yaws.begin(), yaws.end());
+  EXPECT_EQ(yaws, (std::vector<double>{0.0, 90.0, 180.0, 270.0}));
+  EXPECT_TRUE(r.hypotheses.front().T_target_source.isApprox(r.T_target_source, 0.0));
+  EXPECT_EQ(r.hypotheses.front().fitness, r.fitness);
+  EXPECT_EQ(r.hypotheses.front().yaw_deg, r.hypothesis_yaw_deg);
+  EXPECT_EQ(r.hypotheses.front().alpha, r.alpha);
+  EXPECT_EQ(r.hypotheses.front().inlier_weights, r.inlier_weights);
+  EXPECT_FALSE(r.hypotheses[1].T_target_source.isApprox(r.T_target_source, 1e-3));
+  // One hypothesis: one entry, the result itself.
+  o.yaw_hypotheses = 1;
+  const auto single = obmnet::ObmNetRegistrar(o).align(src, tgt);
+  ASSERT_EQ(single.hypotheses.size(), 1u);
+  EXPECT_TRUE(single.hypotheses.front().T_target_source.isApprox(single.T_target_source, 0.0));
+}
+
 TEST(Registrar, ModelTrainedWithoutTheRoadCutsItAtInference) {
   // model.ground_band: the registrar drops the ground plane's returns before sampling, and the
   // reported source indices still point at the input points the network saw.

@@ -112,6 +112,10 @@ TEST(RegistrationConfig, ErrorsNameFileAndKey) {
                     "obmnet.overlap_stage_keep");
   expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, overlap_stage_gate_factor: 0.5}",
                     "obmnet.overlap_stage_gate_factor");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, refine_hypotheses: -1}",
+                    "obmnet.refine_hypotheses");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, init_headings: -2}",
+                    "obmnet.init_headings");
 }
 
 TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
@@ -125,7 +129,11 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
   const auto s = registration::ScanMatcherConfig::load(ConfigNode::fromString(
       "type: obmnet\nobmnet: {model_path: /abs/m.pt, num_points: 512, threads: 1, seed: 7, "
       "pre_align: false, keep_init_if_better: false, overlap_stage_keep: 0.3, "
-      "overlap_stage_gate_factor: 3}"));
+      "overlap_stage_gate_factor: 3, refine_hypotheses: 0, init_headings: 8}"));
+  EXPECT_EQ(s.obmnet.refine_hypotheses, 0);
+  EXPECT_EQ(s.obmnet.init_headings, 8);
+  EXPECT_EQ(c.obmnet.refine_hypotheses, 1);  // the fittest hypothesis only, no blind headings
+  EXPECT_EQ(c.obmnet.init_headings, 0);
   EXPECT_EQ(s.obmnet.model_path, "/abs/m.pt");
   EXPECT_DOUBLE_EQ(s.obmnet.overlap_stage_keep, 0.3);
   EXPECT_DOUBLE_EQ(s.obmnet.overlap_stage_gate_factor, 3.0);

@@ -196,6 +196,39 @@ TEST_F(ObmNetMatchers, OverlapStageKeepsTheExactSolution) {
   }
 }
 
+TEST_F(ObmNetMatchers, BlindHeadingsRegisterASourceTurnedHalfwayRound) {
+  // A source turned by 170° about z (a place seen from the other direction): ICP from the guess
+  // (the identity) cannot reach it, and the untrained network is no help; with init_headings the
+  // ICP from the guess turned by 180° converges, and it pairs more points than any other start.
+  const PointCloud target = test::roomScene(20.0, 8);
+  const Isometry3d truth = makeIsometry(
+      Eigen::AngleAxisd(170.0 * kDegToRad, Eigen::Vector3d::UnitZ()).toRotationMatrix(),
+      Eigen::Vector3d(0.4, -0.3, 0.05));
+  const PointCloud source = makeSource(target, truth, 0.6, 0.0, 9);
+  registration::IcpParams icp;
+  icp.kernel_scale = 0.5;
+  icp.translation_tolerance = 1e-7;
+  icp.rotation_tolerance = 1e-7;
+  icp.max_iterations = 100;
+  const registration::IcpMatcher plain(icp);
+  const auto [pt, pr] = poseError(plain.match(source, target).T_target_source, truth);
+  ASSERT_GT(pr, 10.0)
+      << "the scene must defeat ICP from the identity for this test to mean anything";
+  registration::ObmNetMatcherParams p = params();
+  p.pre_align = false;
+  for (const int refine : {1, 0}) {
+    p.refine_hypotheses = refine;
+    p.init_headings = 4;
+    const registration::ObmNetIcpMatcher m(p, icp);
+    const registration::MatchResult r = m.match(source, target);
+    EXPECT_EQ(r.status, registration::MatchStatus::Ok) << r.message;
+    const auto [et, er] = poseError(r.T_target_source, truth);
+    EXPECT_LT(et, 1e-4) << "refine_hypotheses " << refine << ": translation error [m]";
+    EXPECT_LT(er, 1e-3) << "refine_hypotheses " << refine << ": rotation error [deg]";
+    EXPECT_GT(r.alpha, 0.0);  // the network's diagnostics stay attached to the result
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Every matcher that ends with ICP converges exactly on the noise-free room from a perturbed
 // guess, built through the YAML factory.

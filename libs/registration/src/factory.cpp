@@ -12,7 +12,8 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   ObmNetMatcherParams p;
   node.checkKeys({"model_path", "num_points", "threads", "seed", "denoise_neighbors",
                   "soft_sampling", "pre_align", "keep_init_if_better", "overlap_stage_keep",
-                  "overlap_stage_gate_factor", "yaw_hypotheses", "refine_hypotheses"});
+                  "overlap_stage_gate_factor", "yaw_hypotheses", "refine_hypotheses",
+                  "init_headings"});
   p.model_path = node.required<std::string>("model_path");
   node.get("num_points", p.num_points);
   node.get("threads", p.threads);
