@@ -132,7 +132,8 @@ std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(
 
 /// The classical counterpart of the network's yaw hypotheses (`icp-yaw4`): ICP from the identity
 /// turned by 0°, 90°, 180° and 270° about the source frame's z axis (the sensor's vertical for a
-/// sweep), keeping the result that pairs the most source points within the final gate. Shows what
+/// sweep), keeping the result with the largest inlier ratio (as ObmNetIcpMatcher's competing
+/// starts). Shows what
 /// the network's poses add over trying the same headings blindly.
 bench::Method icpYawMethod(std::shared_ptr<const registration::ScanMatcher> icp, int headings) {
   return {"icp-yaw" + std::to_string(headings),
@@ -146,7 +147,7 @@ bench::Method icpYawMethod(std::shared_ptr<const registration::ScanMatcher> icp,
                                Eigen::Vector3d::Zero());
               registration::MatchResult r = icp->match(s, t, T0);
               if (r.status == registration::MatchStatus::TooFewCorrespondences) continue;
-              if (!best || r.num_correspondences > best->num_correspondences) best = std::move(r);
+              if (!best || r.inlier_ratio > best->inlier_ratio) best = std::move(r);
             }
             if (!best) best = icp->match(s, t, Isometry3d::Identity());
             return matchResult(*best);

@@ -268,42 +268,46 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
          staged.num_correspondences > icp.num_correspondences))
       icp = std::move(staged);
   }
-  // More hypotheses verified by ICP (refine_hypotheses): the network's fitness on its keypoints
-  // can prefer a wrong heading where ICP from the right one pairs more of the whole source.
+  // More hypotheses verified by ICP (refine_hypotheses), and blind headings from the guess
+  // (init_headings): the network's fitness on its keypoints can prefer a wrong heading where ICP
+  // from the right one explains more of the whole sweep. The refinements compete on their inliers
+  // (source points within the confidence's inlier threshold), not on the pairs within the fine
+  // gate: a pose slid along a street pairs nearly every point within a metre-wide gate.
+  auto inliers = [&](const IcpOutcome& o) -> std::size_t {
+    if (o.status == MatchStatus::TooFewCorrespondences) return 0;
+    return evaluateAlignment(source.points, nullptr, target, o.T_target_source, icp_, confidence_)
+        .num_inliers;
+  };
+  std::size_t icp_inliers = 0;
+  auto compete = [&](IcpOutcome other) {
+    const std::size_t n = inliers(other);
+    if (other.status == MatchStatus::TooFewCorrespondences || n <= icp_inliers) return false;
+    icp = std::move(other);
+    icp_inliers = n;
+    return true;
+  };
   std::size_t winner = 0;
   const std::size_t n_refine =
       impl_->params.refine_hypotheses == 0
           ? net.hypotheses.size()
           : std::min(net.hypotheses.size(),
                      static_cast<std::size_t>(std::max(1, impl_->params.refine_hypotheses)));
-  for (std::size_t k = 1; k < n_refine; ++k) {
-    IcpOutcome other = runIcp(source.points, target, net.hypotheses[k].T_target_source, icp_);
-    if (other.status != MatchStatus::TooFewCorrespondences &&
-        (icp.status == MatchStatus::TooFewCorrespondences ||
-         other.num_correspondences > icp.num_correspondences)) {
-      icp = std::move(other);
-      winner = k;
-    }
-  }
-  // Blind headings from the guess (init_headings): the classical starts compete on the same count.
-  bool heading_won = false;
   const int headings = impl_->params.init_headings;
+  if (n_refine > 1 || headings > 0) icp_inliers = inliers(icp);
+  for (std::size_t k = 1; k < n_refine; ++k)
+    if (compete(runIcp(source.points, target, net.hypotheses[k].T_target_source, icp_))) winner = k;
+  bool heading_won = false;
   for (int h = 0; h < headings; ++h) {
     const Isometry3d turn =
         makeIsometry(Eigen::AngleAxisd(360.0 * kDegToRad * h / headings, Eigen::Vector3d::UnitZ())
                          .toRotationMatrix(),
                      Eigen::Vector3d::Zero());
-    IcpOutcome other = runIcp(source.points, target, T_target_source_init * turn, icp_);
-    if (other.status != MatchStatus::TooFewCorrespondences &&
-        (icp.status == MatchStatus::TooFewCorrespondences ||
-         other.num_correspondences > icp.num_correspondences)) {
-      icp = std::move(other);
+    if (compete(runIcp(source.points, target, T_target_source_init * turn, icp_)))
       heading_won = true;
-    }
   }
   if (heading_won)
     OBM_LOG_DEBUG("registration",
-                  "obmnet+icp: a blind heading from the guess paired the most points");
+                  "obmnet+icp: a blind heading from the guess has the most inliers");
   else if (winner > 0)
     return withNetworkConfidence(icp.toMatchResult(), net.withHypothesis(winner), source, target,
                                  icp_, confidence_);

@@ -49,14 +49,15 @@ struct ObmNetMatcherParams {
   /// model's default (4 for a planar LiDAR model, else 1), 1 = off.
   int yaw_hypotheses = 0;
   /// ObmNetIcpMatcher: how many of the network's yaw hypotheses ICP refines, fittest first by the
-  /// network's own fitness (1 = only the fittest; 0 = all). The refinement that pairs the most
-  /// source points within the fine gate is returned, with the α and weights of its hypothesis.
+  /// network's own fitness (1 = only the fittest; 0 = all). The refinement with the most inliers
+  /// (source points within ConfidenceParams::inlier_threshold) is returned, with the α and
+  /// weights of its hypothesis.
   /// For pairs without a heading prior (loop candidates, relocalisation), where the network's
   /// keypoint fitness sometimes prefers a wrong heading; each extra hypothesis costs one ICP.
   int refine_hypotheses = 1;
   /// ObmNetIcpMatcher: ICP also from the initial guess turned about the source's z axis by
   /// 360°·h/N, h = 0 … N−1 (0 = off), competing with the network's refined hypotheses on the same
-  /// count of paired points. The classical headings and the network's poses fail on different
+  /// count of inliers. The classical headings and the network's poses fail on different
   /// pairs (loop candidates seen from the other direction, docs/benchmarks.md): together they
   /// register more than either. Each heading costs one ICP.
   int init_headings = 0;
