@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "obm/core/atomic_file.hpp"
+#include "obm/core/csv.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/progress.hpp"
 #include "obm/core/timer.hpp"
@@ -246,8 +247,9 @@ std::string perPairCsv(const std::vector<obmnet::RegistrationPair>& pairs,
   os << '\n';
   char buf[160];
   for (std::size_t i = 0; i < pairs.size(); ++i) {
-    std::snprintf(buf, sizeof(buf), "%zu,%s,%.4f", i, pairs[i].name.c_str(), pairs[i].overlap);
-    os << buf;
+    // Pair names hold commas ("seq:757->0 (loop, yaw 28°)"): quoted.
+    std::snprintf(buf, sizeof(buf), ",%.4f", pairs[i].overlap);
+    os << i << ",\"" << csvQuoted(pairs[i].name) << '"' << buf;
     for (std::size_t m = 0; m < scores.size(); ++m) {
       const auto& s = scores[m];
       const auto& e = s.per_pair.at(i);

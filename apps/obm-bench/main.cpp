@@ -118,6 +118,8 @@ std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(
   registration::ObmNetMatcherParams p;
   p.refine_hypotheses = refine_hypotheses;
   p.init_headings = init_headings;
+  // The blind headings start as the `icp` row does (its wide gate), the network's poses narrow.
+  p.init_headings_gate = objectIcpParams(unit, polish).initial_max_correspondence_distance;
   p.denoise_neighbors = denoise;
   p.soft_sampling = soft_sampling;
   p.model_path = model;

@@ -43,6 +43,10 @@ sed -n '/"obmnet+icp|icp": {/,/}/p' "$work/either.json" > "$work/either_block.js
 lt "$(num mie_r "$work/either_block.json")" 0.05 || fail "obmnet+icp|icp: MIE(R) on easy pairs"
 [[ $(wc -l < "$work/pairs.csv") -eq 3 ]] || fail "pairs.csv: header + 2 rows expected"
 head -1 "$work/pairs.csv" | grep -q '^pair,name,overlap,obmnet_rre_deg' || fail "pairs.csv header"
+# Names are quoted fields (a kitti loop pair is named "seq:757->0 (loop, yaw 28°)"): every row
+# has the header's number of fields when read as CSV.
+python3 -c 'import csv,sys; r=list(csv.reader(open(sys.argv[1]))); sys.exit(any(len(x)!=len(r[0]) for x in r))' \
+  "$work/pairs.csv" || fail "pairs.csv: a row's fields do not match the header"
 
 # Bad input: the file and line are named, exit code 1, nothing written.
 cp -r "$work/pairs" "$work/bad"

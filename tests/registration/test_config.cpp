@@ -116,6 +116,8 @@ TEST(RegistrationConfig, ErrorsNameFileAndKey) {
                     "obmnet.refine_hypotheses");
   expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, init_headings: -2}",
                     "obmnet.init_headings");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, init_headings_gate: -1}",
+                    "obmnet.init_headings_gate");
 }
 
 TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
@@ -129,7 +131,9 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
   const auto s = registration::ScanMatcherConfig::load(ConfigNode::fromString(
       "type: obmnet\nobmnet: {model_path: /abs/m.pt, num_points: 512, threads: 1, seed: 7, "
       "pre_align: false, keep_init_if_better: false, overlap_stage_keep: 0.3, "
-      "overlap_stage_gate_factor: 3, refine_hypotheses: 0, init_headings: 8}"));
+      "overlap_stage_gate_factor: 3, refine_hypotheses: 0, init_headings: 8, "
+      "init_headings_gate: 5}"));
+  EXPECT_DOUBLE_EQ(s.obmnet.init_headings_gate, 5.0);
   EXPECT_EQ(s.obmnet.refine_hypotheses, 0);
   EXPECT_EQ(s.obmnet.init_headings, 8);
   EXPECT_EQ(c.obmnet.refine_hypotheses, 1);  // the fittest hypothesis only, no blind headings

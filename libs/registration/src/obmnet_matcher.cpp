@@ -297,12 +297,16 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
   for (std::size_t k = 1; k < n_refine; ++k)
     if (compete(runIcp(source.points, target, net.hypotheses[k].T_target_source, icp_))) winner = k;
   bool heading_won = false;
+  IcpParams wide = icp_;
+  if (impl_->params.init_headings_gate > 0.0)
+    wide.initial_max_correspondence_distance =
+        std::max(impl_->params.init_headings_gate, icp_.max_correspondence_distance);
   for (int h = 0; h < headings; ++h) {
     const Isometry3d turn =
         makeIsometry(Eigen::AngleAxisd(360.0 * kDegToRad * h / headings, Eigen::Vector3d::UnitZ())
                          .toRotationMatrix(),
                      Eigen::Vector3d::Zero());
-    if (compete(runIcp(source.points, target, T_target_source_init * turn, icp_)))
+    if (compete(runIcp(source.points, target, T_target_source_init * turn, wide)))
       heading_won = true;
   }
   if (heading_won)

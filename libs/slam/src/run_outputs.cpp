@@ -6,23 +6,11 @@
 #include <sstream>
 #include <thread>
 
+#include "obm/core/csv.hpp"
 #include "obm/eval/trajectory_metrics.hpp"
 #include "obm/registration/confidence.hpp"
 
 namespace obm::slam {
-namespace {
-
-/// The text of a double-quoted CSV field: quotes doubled.
-std::string csvQuoted(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    if (c == '"') out += '"';
-    out += c;
-  }
-  return out;
-}
-
-}  // namespace
 
 nlohmann::json jsonNumber(double v) {
   return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();

@@ -61,6 +61,11 @@ struct ObmNetMatcherParams {
   /// pairs (loop candidates seen from the other direction, docs/benchmarks.md): together they
   /// register more than either. Each heading costs one ICP.
   int init_headings = 0;
+  /// Start gate of the ICP from each blind heading [m] (annealed down to the fine gate as usual);
+  /// 0 = the ICP's own initial gate. Without the network's pose a heading start can be metres
+  /// off, so it needs the wide basin of plain ICP, while the refinement of the network's poses
+  /// keeps its narrow one.
+  double init_headings_gate = 0.0;
 
   /// Reads the keys of `node` (model_path required; unknown keys rejected). A relative
   /// model_path is resolved against the folder of the YAML file.
