@@ -118,6 +118,8 @@ TEST(RegistrationConfig, ErrorsNameFileAndKey) {
                     "obmnet.init_headings");
   expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, init_headings_gate: -1}",
                     "obmnet.init_headings_gate");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, init_headings_margin: 0.9}",
+                    "obmnet.init_headings_margin");
 }
 
 TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
@@ -132,8 +134,9 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
       "type: obmnet\nobmnet: {model_path: /abs/m.pt, num_points: 512, threads: 1, seed: 7, "
       "pre_align: false, keep_init_if_better: false, overlap_stage_keep: 0.3, "
       "overlap_stage_gate_factor: 3, refine_hypotheses: 0, init_headings: 8, "
-      "init_headings_gate: 5}"));
+      "init_headings_gate: 5, init_headings_margin: 1.2}"));
   EXPECT_DOUBLE_EQ(s.obmnet.init_headings_gate, 5.0);
+  EXPECT_DOUBLE_EQ(s.obmnet.init_headings_margin, 1.2);
   EXPECT_EQ(s.obmnet.refine_hypotheses, 0);
   EXPECT_EQ(s.obmnet.init_headings, 8);
   EXPECT_EQ(c.obmnet.refine_hypotheses, 1);  // the fittest hypothesis only, no blind headings

@@ -3,6 +3,8 @@
 // here. The pairs are few so that the test stays fast.
 //  - objects (obmnet_objects_resampled.pt): resampled pairs of the unseen CGAL objects;
 //  - LiDAR (obmnet_lidar_pairs.pt): the real outdoor scan pair of the shared data;
+//  - LiDAR (obmnet_lidar_small.pt): the real outdoor pair turned every 45° about z, with every yaw
+//    hypothesis refined and blind headings (loop candidates without a heading prior);
 //  - LiDAR (obmnet_lidar_small.pt): real KITTI sweeps five apart (~4 m), against the chain of
 //    consecutive ICP registrations (the sweeps have no ground truth);
 //  - indoor (obmnet_indoor.pt): pairs of different real RGB-D frames (Open3D's five).

@@ -199,7 +199,10 @@ TEST_F(ObmNetMatchers, OverlapStageKeepsTheExactSolution) {
 TEST_F(ObmNetMatchers, BlindHeadingsRegisterASourceTurnedHalfwayRound) {
   // A source turned by 170° about z (a place seen from the other direction): ICP from the guess
   // (the identity) cannot reach it, and the untrained network is no help; with init_headings the
-  // ICP from the guess turned by 180° converges, and it pairs more points than any other start.
+  // ICP from the guess turned by 180° converges, and has the most inliers. The room is nearly
+  // symmetric under a half turn (only the two boxes tell), so the untrained network's refined
+  // pose, the room turned round, has almost as many: with the default margin (a heading must
+  // have 1.08× the network's inliers) the network's pose is kept, with margin 1 the heading wins.
   const PointCloud target = test::roomScene(20.0, 8);
   const Isometry3d truth = makeIsometry(
       Eigen::AngleAxisd(170.0 * kDegToRad, Eigen::Vector3d::UnitZ()).toRotationMatrix(),
@@ -216,17 +219,28 @@ TEST_F(ObmNetMatchers, BlindHeadingsRegisterASourceTurnedHalfwayRound) {
       << "the scene must defeat ICP from the identity for this test to mean anything";
   registration::ObmNetMatcherParams p = params();
   p.pre_align = false;
+  const registration::MatchResult network =
+      registration::ObmNetIcpMatcher(p, icp).match(source, target);
   for (const int refine : {1, 0}) {
     p.refine_hypotheses = refine;
     p.init_headings = 4;
-    const registration::ObmNetIcpMatcher m(p, icp);
-    const registration::MatchResult r = m.match(source, target);
+    p.init_headings_margin = 1.0;
+    const registration::MatchResult r =
+        registration::ObmNetIcpMatcher(p, icp).match(source, target);
     EXPECT_EQ(r.status, registration::MatchStatus::Ok) << r.message;
     const auto [et, er] = poseError(r.T_target_source, truth);
     EXPECT_LT(et, 1e-4) << "refine_hypotheses " << refine << ": translation error [m]";
     EXPECT_LT(er, 1e-3) << "refine_hypotheses " << refine << ": rotation error [deg]";
     EXPECT_GT(r.alpha, 0.0);  // the network's diagnostics stay attached to the result
+    EXPECT_GT(r.inlier_ratio, network.inlier_ratio);
   }
+  p.refine_hypotheses = 1;
+  p.init_headings_margin = 1.08;
+  const registration::MatchResult kept =
+      registration::ObmNetIcpMatcher(p, icp).match(source, target);
+  EXPECT_LT(kept.inlier_ratio, 1.08 * network.inlier_ratio) << "the heading was not clearly fitter";
+  EXPECT_TRUE(kept.T_target_source.isApprox(network.T_target_source, 1e-9))
+      << "within the margin the network's pose must be kept";
 }
 
 // ---------------------------------------------------------------------------------------------

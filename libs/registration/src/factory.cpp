@@ -13,7 +13,7 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   node.checkKeys({"model_path", "num_points", "threads", "seed", "denoise_neighbors",
                   "soft_sampling", "pre_align", "keep_init_if_better", "overlap_stage_keep",
                   "overlap_stage_gate_factor", "yaw_hypotheses", "refine_hypotheses",
-                  "init_headings", "init_headings_gate"});
+                  "init_headings", "init_headings_gate", "init_headings_margin"});
   p.model_path = node.required<std::string>("model_path");
   node.get("num_points", p.num_points);
   node.get("threads", p.threads);
@@ -31,6 +31,9 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
     throw ConfigError(node.where("refine_hypotheses") + ": must be >= 0 (0 = all)");
   node.get("init_headings", p.init_headings);
   node.get("init_headings_gate", p.init_headings_gate);
+  node.get("init_headings_margin", p.init_headings_margin);
+  if (!(p.init_headings_margin >= 1.0))
+    throw ConfigError(node.where("init_headings_margin") + ": must be >= 1");
   if (!(p.init_headings_gate >= 0.0))
     throw ConfigError(node.where("init_headings_gate") + ": must be >= 0 (0 = the ICP's own)");
   if (p.init_headings < 0)

@@ -279,9 +279,11 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
         .num_inliers;
   };
   std::size_t icp_inliers = 0;
-  auto compete = [&](IcpOutcome other) {
+  auto compete = [&](IcpOutcome other, double margin) {
     const std::size_t n = inliers(other);
-    if (other.status == MatchStatus::TooFewCorrespondences || n <= icp_inliers) return false;
+    if (other.status == MatchStatus::TooFewCorrespondences ||
+        static_cast<double>(n) <= margin * static_cast<double>(icp_inliers))
+      return false;
     icp = std::move(other);
     icp_inliers = n;
     return true;
@@ -295,7 +297,8 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
   const int headings = impl_->params.init_headings;
   if (n_refine > 1 || headings > 0) icp_inliers = inliers(icp);
   for (std::size_t k = 1; k < n_refine; ++k)
-    if (compete(runIcp(source.points, target, net.hypotheses[k].T_target_source, icp_))) winner = k;
+    if (compete(runIcp(source.points, target, net.hypotheses[k].T_target_source, icp_), 1.0))
+      winner = k;
   bool heading_won = false;
   IcpParams wide = icp_;
   if (impl_->params.init_headings_gate > 0.0)
@@ -306,7 +309,9 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
         makeIsometry(Eigen::AngleAxisd(360.0 * kDegToRad * h / headings, Eigen::Vector3d::UnitZ())
                          .toRotationMatrix(),
                      Eigen::Vector3d::Zero());
-    if (compete(runIcp(source.points, target, T_target_source_init * turn, wide)))
+    // Against the network's best, not against an earlier heading: the margin is the network's.
+    if (compete(runIcp(source.points, target, T_target_source_init * turn, wide),
+                heading_won ? 1.0 : impl_->params.init_headings_margin))
       heading_won = true;
   }
   if (heading_won)

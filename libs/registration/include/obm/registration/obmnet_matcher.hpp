@@ -66,6 +66,12 @@ struct ObmNetMatcherParams {
   /// off, so it needs the wide basin of plain ICP, while the refinement of the network's poses
   /// keeps its narrow one.
   double init_headings_gate = 0.0;
+  /// A blind heading replaces the network's refined pose only when it has this many times the
+  /// inliers (≥ 1). The network's pose carries the network's evidence, a heading's only its
+  /// count; between two sweeps of a street a pose turned by 180° fits almost as well as the true
+  /// one. 1.08 separates the wins from the losses of the blind headings on the benchmark's loop
+  /// and (i, i+20) pairs (docs/benchmarks.md, "Every hypothesis refined").
+  double init_headings_margin = 1.08;
 
   /// Reads the keys of `node` (model_path required; unknown keys rejected). A relative
   /// model_path is resolved against the folder of the YAML file.
