@@ -69,6 +69,19 @@ registration::ConfidenceParams lidarConfidence() {
   return conf;
 }
 
+/// The real outdoor LiDAR pair of the shared data (`real_pairs/lidar_small_gicp`) as the LiDAR
+/// models see it, with its reference pose T_target_source.
+struct RealPair {
+  Isometry3d gt;
+  PointCloud source, target;
+};
+RealPair realOutdoorPair() {
+  const std::string d = test::sharedDataDir() + "/real_pairs/lidar_small_gicp/";
+  return {test::readMatrix4(d + "T_target_source.txt"),
+          lidarCloud(io::readPointCloud(d + "source.ply")),
+          lidarCloud(io::readPointCloud(d + "target.ply"))};
+}
+
 }  // namespace
 
 TEST(ModelAccuracy, ObjectModelOnIndependentSamplingsOfUnseenObjects) {
@@ -118,10 +131,7 @@ TEST(ModelAccuracy, ObjectModelOnIndependentSamplingsOfUnseenObjects) {
 
 TEST(ModelAccuracy, LidarModelOnTheRealOutdoorPair) {
   OBM_REQUIRE_SHARED_DATA("real_pairs/lidar_small_gicp/T_target_source.txt");
-  const std::string d = test::sharedDataDir() + "/real_pairs/lidar_small_gicp/";
-  const Isometry3d gt = test::readMatrix4(d + "T_target_source.txt");
-  const PointCloud source = lidarCloud(io::readPointCloud(d + "source.ply"));
-  const PointCloud target = lidarCloud(io::readPointCloud(d + "target.ply"));
+  const auto [gt, source, target] = realOutdoorPair();
   const registration::IcpParams icp = lidarIcp();
   const registration::ConfidenceParams conf = lidarConfidence();
   const registration::ObmNetMatcher network(netParams(kModels + "obmnet_lidar_pairs.pt"), icp,
@@ -159,10 +169,7 @@ TEST(ModelAccuracy, SmallLidarModelAndBlindHeadingsRegisterTheRealPairFromAnyHea
   // they register seven of the eight turns (45° is neither's). Asserted: the union registers at
   // least seven, and more than either alone.
   OBM_REQUIRE_SHARED_DATA("real_pairs/lidar_small_gicp/T_target_source.txt");
-  const std::string d = test::sharedDataDir() + "/real_pairs/lidar_small_gicp/";
-  const Isometry3d gt = test::readMatrix4(d + "T_target_source.txt");
-  const PointCloud source = lidarCloud(io::readPointCloud(d + "source.ply"));
-  const PointCloud target = lidarCloud(io::readPointCloud(d + "target.ply"));
+  const auto [gt, source, target] = realOutdoorPair();
   const registration::IcpParams icp = lidarIcp();
   const registration::ConfidenceParams conf = lidarConfidence();
   registration::ObmNetMatcherParams p = netParams(kModels + "obmnet_lidar_small.pt");

@@ -61,6 +61,17 @@ class ObmNetMatchers : public ::testing::Test {
   }
 };
 
+/// ICP run to convergence on the noise-free room (tight tolerances, a wide kernel): what "the
+/// matcher reaches the truth exactly" is measured with.
+registration::IcpParams exactIcp() {
+  registration::IcpParams icp;
+  icp.kernel_scale = 0.5;
+  icp.translation_tolerance = 1e-7;
+  icp.rotation_tolerance = 1e-7;
+  icp.max_iterations = 100;
+  return icp;
+}
+
 void expectSymmetricPsd(const Matrix6d& W) {
   EXPECT_TRUE(W.allFinite());
   EXPECT_TRUE(W.isApprox(W.transpose(), 1e-9)) << W;
@@ -179,11 +190,7 @@ TEST_F(ObmNetMatchers, OverlapStageKeepsTheExactSolution) {
   // ICP starts, not what it converges to: on the noise-free room both reach the truth.
   const PointCloud target = test::roomScene(20.0, 8);
   const PointCloud source = makeSource(target, kTruth, 0.6, 0.0, 9);
-  registration::IcpParams icp;
-  icp.kernel_scale = 0.5;
-  icp.translation_tolerance = 1e-7;
-  icp.rotation_tolerance = 1e-7;
-  icp.max_iterations = 100;
+  const registration::IcpParams icp = exactIcp();
   registration::ObmNetMatcherParams p = params();
   for (const double keep : {0.0, 0.5, 1.0}) {
     p.overlap_stage_keep = keep;
@@ -208,11 +215,7 @@ TEST_F(ObmNetMatchers, BlindHeadingsRegisterASourceTurnedHalfwayRound) {
       Eigen::AngleAxisd(170.0 * kDegToRad, Eigen::Vector3d::UnitZ()).toRotationMatrix(),
       Eigen::Vector3d(0.4, -0.3, 0.05));
   const PointCloud source = makeSource(target, truth, 0.6, 0.0, 9);
-  registration::IcpParams icp;
-  icp.kernel_scale = 0.5;
-  icp.translation_tolerance = 1e-7;
-  icp.rotation_tolerance = 1e-7;
-  icp.max_iterations = 100;
+  const registration::IcpParams icp = exactIcp();
   const registration::IcpMatcher plain(icp);
   const auto [pt, pr] = poseError(plain.match(source, target).T_target_source, truth);
   ASSERT_GT(pr, 10.0)

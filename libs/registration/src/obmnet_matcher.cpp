@@ -110,7 +110,6 @@ NetworkStage runNetwork(const obmnet::ObmNetRegistrar& reg, const ObmNetMatcherP
   s.sampled.reserve(n);
   // Indices refer to the cloud given to align(), which has the source's point order.
   for (std::size_t i = 0; i < n; ++i) s.sampled.push_back(source.points[r.source_indices[i]]);
-  s.prior = svdWeights(r.inlier_weights, r.overlap_membership, r.alpha, n);
   for (const auto& h : r.hypotheses) {
     NetworkStage::Hypothesis y;
     y.T_target_source = p.pre_align ? h.T_target_source * T_init : h.T_target_source;
@@ -119,6 +118,10 @@ NetworkStage runNetwork(const obmnet::ObmNetRegistrar& reg, const ObmNetMatcherP
     y.prior = svdWeights(h.inlier_weights, h.overlap_membership, h.alpha, n);
     if (y.T_target_source.matrix().allFinite()) s.hypotheses.push_back(std::move(y));
   }
+  // The returned pose is the fittest hypothesis's (finite, checked above): its weights are those.
+  s.prior = !s.hypotheses.empty() && !r.kept_start
+                ? s.hypotheses.front().prior
+                : svdWeights(r.inlier_weights, r.overlap_membership, r.alpha, n);
   return s;
 }
 
