@@ -23,7 +23,8 @@ PACKAGES=(
   mrpt-apps mrpt-common
   # headless browser of the report.html check (tests/apps/check_report_html.sh)
   chromium fonts-dejavu-core
-  # the demo prints obm-map's metrics with python3; scripts/bench_slam.sh scores with it
+  # the demo prints obm-map's metrics with python3; scripts/bench_slam.sh scores with it;
+  # tests/apps/check_obm_bench_cli.sh reads obm-bench's per-pair CSV with it
   python3
 )
 
