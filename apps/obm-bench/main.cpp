@@ -37,14 +37,26 @@ std::vector<std::string> splitList(const std::string& s) {
   return out;
 }
 
-/// `soft_sampling`: −1 = as the model file says, 0 = one-hot, 1 = relaxed overlap draws (--sampling).
+/// How every network row runs the model (the command line's inference choices).
+struct NetRun {
+  std::string model;
+  int threads = 2;
+  int num_points = 0;
+  int denoise = 0;
+  int soft_sampling = -1;  ///< −1 = as the model file says, 0 = one-hot, 1 = relaxed (--sampling)
+  int iterations = 0;      ///< registration iterations per pass; 0 = the model's (--iterations)
+  int yaw_hypotheses = 0;  ///< 0 = the model's (--yaw-hypotheses)
+  int ransac = 0;          ///< RANSAC samples on the network's correspondences (--ransac)
+};
+
 /// `keep_start`: the network's start competes with its poses on their fitness
 /// (ObmNetRegistrar::Options::keep_start_if_fitter), the `obmnet+verify` row.
-bench::Method obmnetMethod(const std::string& name, const std::string& model, int threads,
-                           int num_points, int denoise, int soft_sampling,
-                           bool keep_start = false) {
-  obmnet::ObmNetRegistrar::Options o{model, num_points, threads, 0, denoise};
-  o.soft_sampling = soft_sampling;
+bench::Method obmnetMethod(const std::string& name, const NetRun& net, bool keep_start = false) {
+  obmnet::ObmNetRegistrar::Options o{net.model, net.num_points, net.threads, 0, net.denoise};
+  o.soft_sampling = net.soft_sampling;
+  o.iterations = net.iterations;
+  o.yaw_hypotheses = net.yaw_hypotheses;
+  o.ransac_iterations = net.ransac;
   o.keep_start_if_fitter = keep_start;
   auto reg = std::make_shared<obmnet::ObmNetRegistrar>(o);
   return {name, [reg](const PointCloud& s, const PointCloud& t) {
@@ -111,20 +123,23 @@ registration::IcpParams objectRefineIcpParams(double unit, double polish) {
   return p;
 }
 
-std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(
-    const std::string& model, int threads, int num_points, int denoise, int soft_sampling,
-    double unit, double polish, double overlap_keep, int refine_hypotheses = 1,
-    int init_headings = 0) {
+std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(const NetRun& net, double unit,
+                                                                 double polish, double overlap_keep,
+                                                                 int refine_hypotheses = 1,
+                                                                 int init_headings = 0) {
   registration::ObmNetMatcherParams p;
   p.refine_hypotheses = refine_hypotheses;
   p.init_headings = init_headings;
   // The blind headings start as the `icp` row does (its wide gate), the network's poses narrow.
   p.init_headings_gate = objectIcpParams(unit, polish).initial_max_correspondence_distance;
-  p.denoise_neighbors = denoise;
-  p.soft_sampling = soft_sampling;
-  p.model_path = model;
-  p.num_points = num_points;
-  p.threads = threads;
+  p.denoise_neighbors = net.denoise;
+  p.soft_sampling = net.soft_sampling;
+  p.iterations = net.iterations;
+  p.yaw_hypotheses = net.yaw_hypotheses;
+  p.ransac_iterations = net.ransac;
+  p.model_path = net.model;
+  p.num_points = net.num_points;
+  p.threads = net.threads;
   p.pre_align = false;
   p.keep_init_if_better = false;
   p.overlap_stage_keep = overlap_keep;
@@ -328,10 +343,26 @@ int main(int argc, char** argv) {
                  "hard (one-hot draws) or soft (the relaxed draws of training)")
       ->check(CLI::IsMember({"model", "hard", "soft"}))
       ->capture_default_str();
+  int iterations = 0, yaw_hypotheses = 0, ransac = 5000;
+  app.add_option("--ransac", ransac,
+                 "RANSAC samples of the obmnet+ransac rows: a consensus pose from the network's "
+                 "correspondences (each source point and its 4 most probable target points), "
+                 "competing with its weighted SVD")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--iterations", iterations,
+                 "registration iterations of each network pass (0 = the model's n_iters; the "
+                 "iterations share their weights, so more than training ran is allowed)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--yaw-hypotheses", yaw_hypotheses,
+                 "sources turned by 360°/H about z before the network, all H in one batch (0 = "
+                 "the model's: 4 for a planar LiDAR model, else 1)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   app.add_flag("-q,--quiet", quiet, "no progress bars");
   apps::addLogLevelOption(app, log_level, "warn");
   CLI11_PARSE(app, argc, argv);
-  const int soft_sampling = sampling == "soft" ? 1 : sampling == "hard" ? 0 : -1;
 
   return apps::runMain("obm-bench", apps::OtherExceptions::Error, [&] {
     setLogLevel(parseLogLevel(log_level));
@@ -478,35 +509,41 @@ int main(int argc, char** argv) {
     if (overlap_keep > 1.0) throw ConfigError("--overlap-stage must be in [0, 1]");
     if (!write_pairs.empty()) bench::writePairFolder(write_pairs, pairs);
 
+    NetRun net;
+    net.model = model;
+    net.threads = threads;
+    net.num_points = num_points;
+    net.denoise = denoise;
+    net.soft_sampling = sampling == "soft" ? 1 : sampling == "hard" ? 0 : -1;
+    net.iterations = iterations;
+    net.yaw_hypotheses = yaw_hypotheses;
     std::vector<bench::Method> methods;
     if (!ablation.empty()) {
-      for (const auto& m : splitList(ablation))
-        methods.push_back(obmnetMethod(m, m, threads, num_points, denoise, soft_sampling));
+      for (const auto& m : splitList(ablation)) {
+        NetRun row = net;
+        row.model = m;
+        methods.push_back(obmnetMethod(m, row));
+      }
     } else {
-      methods.push_back(obmnetMethod("obmnet", model, threads, num_points, denoise, soft_sampling));
+      methods.push_back(obmnetMethod("obmnet", net));
       // The network verified against its start (the identity of the pair as given): meaningful
       // where the start is a prior (consecutive sweeps), so listed by default for the kitti
       // protocol and on request elsewhere.
       if (protocol == "kitti" || !methods_arg.empty())
-        methods.push_back(
-            obmnetMethod("obmnet+verify", model, threads, num_points, denoise, soft_sampling, true));
+        methods.push_back(obmnetMethod("obmnet+verify", net, true));
       // One matcher of each kind (one model load), shared by the rows that use it.
-      const auto net_icp =
-          obmnetIcpMatcher(model, threads, num_points, denoise, soft_sampling, unit, polish, overlap_keep);
+      const auto net_icp = obmnetIcpMatcher(net, unit, polish, overlap_keep);
       const auto icp = objectIcpMatcher(unit, polish);
       methods.push_back(matcherMethod("obmnet+icp", net_icp));
       methods.push_back(matcherMethod("icp", icp));
       // Every yaw hypothesis of the network refined by ICP, and its classical counterpart (the
       // same headings tried blindly): for sweeps without a heading prior (loops).
       if (protocol == "kitti" || !methods_arg.empty()) {
-        methods.push_back(matcherMethod(
-            "obmnet+icp-all", obmnetIcpMatcher(model, threads, num_points, denoise, soft_sampling,
-                                               unit, polish, overlap_keep, 0)));
-        methods.push_back(icpYawMethod(icp, 4));
         methods.push_back(
-            matcherMethod("obmnet+icp-all+yaw4",
-                          obmnetIcpMatcher(model, threads, num_points, denoise, soft_sampling, unit,
-                                           polish, overlap_keep, 0, 4)));
+            matcherMethod("obmnet+icp-all", obmnetIcpMatcher(net, unit, polish, overlap_keep, 0)));
+        methods.push_back(icpYawMethod(icp, 4));
+        methods.push_back(matcherMethod("obmnet+icp-all+yaw4",
+                                        obmnetIcpMatcher(net, unit, polish, overlap_keep, 0, 4)));
       }
       // The competition with the identity start helps only where the identity is a meaningful
       // prior (consecutive sweeps in their sensor frames); on pairs with a random rotation the
@@ -514,6 +551,17 @@ int main(int argc, char** argv) {
       // listed by default for the kitti protocol and on request (--methods) elsewhere.
       if (protocol == "kitti" || !methods_arg.empty())
         methods.push_back(obmnetIcpOrIcpMethod(net_icp, icp));
+      // The network's correspondences given to RANSAC beside its weighted SVD
+      // (ObmNetRegistrar::Options::ransac_iterations); on request (--methods).
+      if (!methods_arg.empty() && ransac > 0) {
+        NetRun net_r = net;
+        net_r.ransac = ransac;
+        methods.push_back(obmnetMethod("obmnet+ransac", net_r));
+        methods.push_back(matcherMethod("obmnet+ransac+icp",
+                                        obmnetIcpMatcher(net_r, unit, polish, overlap_keep)));
+        methods.push_back(matcherMethod("obmnet+ransac+icp-all+yaw4",
+                                        obmnetIcpMatcher(net_r, unit, polish, overlap_keep, 0, 4)));
+      }
       auto o3d = bench::open3dMethods(scaledOpen3dParams(unit));
       for (const auto& m : o3d) methods.push_back(m);
       // The module as a plug-in of the methods users have (the paper's Table 4); listed on

@@ -421,7 +421,9 @@ TEST(Registrar, ReportsEveryYawHypothesisFittestFirst) {
   for (std::size_t h = 0; h < r.hypotheses.size(); ++h) {
     const auto& y = r.hypotheses[h];
     yaws.push_back(y.yaw_deg);
-    if (h > 0) EXPECT_LE(y.fitness, r.hypotheses[h - 1].fitness) << "hypothesis " << h;
+    if (h > 0) {
+      EXPECT_LE(y.fitness, r.hypotheses[h - 1].fitness) << "hypothesis " << h;
+    }
     EXPECT_EQ(y.inlier_weights.size(), r.inlier_weights.size());
     EXPECT_EQ(y.overlap_membership.size(), r.overlap_membership.size());
     EXPECT_GT(y.alpha, 0.0);

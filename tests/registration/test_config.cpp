@@ -120,6 +120,16 @@ TEST(RegistrationConfig, ErrorsNameFileAndKey) {
                     "obmnet.init_headings_gate");
   expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, init_headings_margin: 0.9}",
                     "obmnet.init_headings_margin");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, iterations: -1}",
+                    "obmnet.iterations");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, ransac_iterations: -5}",
+                    "obmnet.ransac_iterations");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, ransac_candidates: 5}",
+                    "obmnet.ransac_candidates");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, ransac_inlier_spacing: 0}",
+                    "obmnet.ransac_inlier_spacing");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, ransac_max_turn_deg: 200}",
+                    "obmnet.ransac_max_turn_deg");
 }
 
 TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
@@ -134,7 +144,14 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
       "type: obmnet\nobmnet: {model_path: /abs/m.pt, num_points: 512, threads: 1, seed: 7, "
       "pre_align: false, keep_init_if_better: false, overlap_stage_keep: 0.3, "
       "overlap_stage_gate_factor: 3, refine_hypotheses: 0, init_headings: 8, "
-      "init_headings_gate: 5, init_headings_margin: 1.2}"));
+      "init_headings_gate: 5, init_headings_margin: 1.2, iterations: 4, ransac_iterations: 3000, "
+      "ransac_candidates: 2, ransac_inlier_spacing: 1.5, ransac_max_turn_deg: 30}"));
+  EXPECT_EQ(s.obmnet.iterations, 4);
+  EXPECT_EQ(s.obmnet.ransac_iterations, 3000);
+  EXPECT_EQ(s.obmnet.ransac_candidates, 2);
+  EXPECT_DOUBLE_EQ(s.obmnet.ransac_inlier_spacing, 1.5);
+  EXPECT_DOUBLE_EQ(s.obmnet.ransac_max_turn_deg, 30.0);
+  EXPECT_EQ(c.obmnet.ransac_iterations, 0);  // the shipped YAML: the weighted SVD alone
   EXPECT_DOUBLE_EQ(s.obmnet.init_headings_gate, 5.0);
   EXPECT_DOUBLE_EQ(s.obmnet.init_headings_margin, 1.2);
   EXPECT_EQ(s.obmnet.refine_hypotheses, 0);

@@ -7,6 +7,8 @@
 //    hypothesis refined and blind headings (loop candidates without a heading prior);
 //  - LiDAR (obmnet_lidar_small.pt): real KITTI sweeps five apart (~4 m), against the chain of
 //    consecutive ICP registrations (the sweeps have no ground truth);
+//  - LiDAR (obmnet_lidar_small.pt): real KITTI sweeps ten apart (~8 m), the network's
+//    correspondences given to RANSAC against its weighted SVD;
 //  - indoor (obmnet_indoor.pt): pairs of different real RGB-D frames (Open3D's five).
 #include <gtest/gtest.h>
 
@@ -260,6 +262,63 @@ TEST(ModelAccuracy, SmallLidarModelOnRealKittiSweepsFiveApart) {
   }
   // The network alone moves the source towards the target: closer than not moving.
   EXPECT_LT(net_t / n, identity_t / n) << "mean translation error of the network alone [m]";
+}
+
+TEST(ModelAccuracy, SmallLidarModelWithRansacOnRealKittiSweepsTenApart) {
+  // Real sweeps ten apart (~8 m), where the weighted SVD is pulled off by the network's wrong
+  // matches: its own correspondences given to RANSAC (ransac_iterations) must do better, alone and
+  // before ICP. Reference: the chain of the ten consecutive ICP registrations, as above.
+  OBM_REQUIRE_SHARED_DATA("kitti/raw_drive_22/velodyne/000021.bin");
+  const std::string d = test::sharedDataDir() + "/kitti/raw_drive_22/velodyne/";
+  auto sweep = [&](std::size_t i) {
+    return lidarCloud(io::readKittiVelodyne(d + io::kittiScanFileName(i)));
+  };
+  const registration::IcpParams icp = lidarIcp();
+  const registration::ConfidenceParams conf = lidarConfidence();
+  const registration::IcpMatcher chain_icp(icp, conf);
+  const std::string model = kModels + "obmnet_lidar_small.pt";
+  registration::ObmNetMatcherParams with = netParams(model);
+  with.ransac_iterations = 5000;
+  const registration::ObmNetMatcher svd_alone(netParams(model), icp, conf);
+  const registration::ObmNetMatcher ransac_alone(with, icp, conf);
+  const registration::ObmNetIcpMatcher svd_icp(netParams(model), icp, conf);
+  const registration::ObmNetIcpMatcher ransac_icp(with, icp, conf);
+  Isometry3d step = Isometry3d::Identity();
+  step.translation() = Eigen::Vector3d(0.8, 0.0, 0.0);
+  auto ok = [](const Isometry3d& T, const Isometry3d& ref) {
+    return rreDeg(T, ref) < 1.0 && rte(T, ref) < 0.3;
+  };
+  double t_svd = 0.0, t_ransac = 0.0, t_identity = 0.0;
+  int ok_svd = 0, ok_ransac = 0, n = 0;
+  for (const std::size_t i : {std::size_t{0}, std::size_t{4}, std::size_t{7}, std::size_t{11}}) {
+    Isometry3d reference = Isometry3d::Identity();  // T_i_(i+10)
+    for (std::size_t j = i; j < i + 10; ++j) {
+      const registration::MatchResult r = chain_icp.match(sweep(j + 1), sweep(j), step);
+      ASSERT_GT(r.inlier_ratio, 0.7) << "chain " << j + 1 << " -> " << j;
+      reference = reference * r.T_target_source;
+    }
+    const PointCloud source = sweep(i + 10), target = sweep(i);
+    const Isometry3d a = svd_alone.match(source, target).T_target_source;
+    const Isometry3d b = ransac_alone.match(source, target).T_target_source;
+    const Isometry3d c = svd_icp.match(source, target).T_target_source;
+    const Isometry3d e = ransac_icp.match(source, target).T_target_source;
+    std::printf("sweeps %zu->%zu (%.2f m): network alone, SVD RRE %.2f deg RTE %.2f m, with RANSAC "
+                "RRE %.2f deg RTE %.2f m; +ICP, SVD RRE %.3f deg RTE %.3f m, with RANSAC RRE %.3f "
+                "deg RTE %.3f m\n",
+                i + 10, i, reference.translation().norm(), rreDeg(a, reference), rte(a, reference),
+                rreDeg(b, reference), rte(b, reference), rreDeg(c, reference), rte(c, reference),
+                rreDeg(e, reference), rte(e, reference));
+    t_svd += rte(a, reference);
+    t_ransac += rte(b, reference);
+    t_identity += reference.translation().norm();
+    ok_svd += ok(c, reference);
+    ok_ransac += ok(e, reference);
+    ++n;
+  }
+  EXPECT_LT(t_ransac / n, 0.6 * t_svd / n) << "mean RTE of the network alone with RANSAC [m]";
+  EXPECT_LT(t_ransac / n, 0.25 * t_identity / n) << "against not moving [m]";
+  EXPECT_GE(ok_ransac, 3) << "of " << n << " registered within 1° and 0.3 m with RANSAC + ICP";
+  EXPECT_GT(ok_ransac, ok_svd) << "RANSAC + ICP against the weighted SVD + ICP";
 }
 
 TEST(ModelAccuracy, IndoorModelOnPairsOfRealRgbdFrames) {

@@ -149,6 +149,9 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
       out.weights = w;
       out.overlap = overlap;
       out.membership = membership;
+      const auto top = match.detach().topk(std::min<int64_t>(kMatchCandidates, match.size(2)), 2);
+      out.match_prob = std::get<0>(top);
+      out.match_index = std::get<1>(top);
     }
   }
   out.R = T.R;
@@ -165,6 +168,11 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
 void ObmNetImpl::setSoftInferenceSampling(bool soft) {
   config_.soft_inference_sampling = soft;
   if (sampler_) sampler_->setSoftInference(soft);
+}
+
+void ObmNetImpl::setIterations(int n_iters) {
+  OBM_ASSERT(n_iters >= 1, "ObmNet::setIterations: n_iters must be >= 1");
+  config_.n_iters = n_iters;
 }
 
 void ObmNetImpl::seedTrainingNoise(std::uint64_t seed) {

@@ -3,11 +3,13 @@
 #include <torch/torch.h>
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <mutex>
 
 #include "obm/core/cloud_ops.hpp"
 #include "obm/core/errors.hpp"
+#include "obm/core/ransac_pose.hpp"
 #include "obm/core/timer.hpp"
 #include "obm/obmnet/data.hpp"
 #include "obm/obmnet/model_io.hpp"
@@ -26,6 +28,16 @@ ObmNetRegistrar::ObmNetRegistrar(const Options& options) : impl_(std::make_uniqu
   impl_->model = obmnet::loadModel(options.model_path, &impl_->meta);
   if (impl_->opt.num_points <= 0) impl_->opt.num_points = impl_->meta.num_points;
   if (options.soft_sampling >= 0) impl_->model->setSoftInferenceSampling(options.soft_sampling > 0);
+  if (options.iterations < 0)
+    throw ContractError("ObmNetRegistrar: iterations must be >= 0 (0 = the model's)");
+  if (options.iterations > 0) impl_->model->setIterations(options.iterations);
+  if (options.ransac_iterations < 0 || options.match_candidates < 1 ||
+      options.match_candidates > kMatchCandidates || !(options.ransac_inlier_spacing > 0.0) ||
+      !(options.ransac_max_turn_deg > 0.0 && options.ransac_max_turn_deg <= 180.0))
+    throw ContractError(
+        "ObmNetRegistrar: ransac_iterations must be >= 0, match_candidates in [1, " +
+        std::to_string(kMatchCandidates) +
+        "], ransac_inlier_spacing > 0 and ransac_max_turn_deg in (0, 180]");
   if (options.threads > 0) torch::set_num_threads(options.threads);
 }
 
@@ -169,7 +181,48 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
         makeIsometry(orthonormalize(Rm), Eigen::Vector3d(t[0].item<double>(), t[1].item<double>(),
                                                          t[2].item<double>())) *
         turn(Rz[static_cast<std::size_t>(h)]);
-    const double fit = fitness(T_hat[static_cast<std::size_t>(h)]);
+    double fit = fitness(T_hat[static_cast<std::size_t>(h)]);
+    if (impl_->opt.ransac_iterations > 0) {
+      // The network's putative pairs for this hypothesis: each (turned) source point and its most
+      // probable target point; a consensus pose from them competes with the weighted SVD's.
+      const Isometry3d T_turn = turn(Rz[static_cast<std::size_t>(h)]);
+      const auto idx = o.match_index[h].contiguous();
+      const auto prob = o.match_prob[h].to(torch::kFloat64).contiguous();
+      const auto* ip = idx.data_ptr<int64_t>();
+      const auto* pp = prob.data_ptr<double>();
+      const auto C = static_cast<std::size_t>(idx.size(1));
+      const std::size_t use = std::min<std::size_t>(
+          C, static_cast<std::size_t>(std::max(1, impl_->opt.match_candidates)));
+      std::vector<Eigen::Vector3d> ps, qs;
+      std::vector<double> ws;
+      RansacPoseParams rp;
+      for (std::size_t i = 0; i < src.size(); ++i) {
+        const Eigen::Vector3d p = T_turn * src.points[i].cast<double>();
+        for (std::size_t c = 0; c < use; ++c) {
+          ps.push_back(p);
+          qs.push_back(tgt.points[static_cast<std::size_t>(ip[i * C + c])].cast<double>());
+          ws.push_back(pp[i * C + c]);
+          rp.group.push_back(i);
+        }
+      }
+      rp.planar = cfg.planar;
+      rp.iterations = impl_->opt.ransac_iterations;
+      // The pass covers the headings around its hypothesis (training turned sources by up to
+      // ±45°); a consensus beyond them belongs to another hypothesis's search.
+      rp.max_yaw = impl_->opt.ransac_max_turn_deg * 3.14159265358979323846 / 180.0;
+      rp.inlier_threshold =
+          impl_->opt.ransac_inlier_spacing * std::sqrt(static_cast<double>(spacing[M / 2]));
+      rp.seed = impl_->opt.seed + static_cast<std::uint64_t>(h) + 1;
+      const RansacPoseResult rr = ransacPose(ps, qs, rp, ws);
+      if (rr.ok) {
+        const Isometry3d T_r = rr.T_target_source * T_turn;
+        const double fit_r = fitness(T_r);
+        if (fit_r > fit) {
+          fit = fit_r;
+          T_hat[static_cast<std::size_t>(h)] = T_r;
+        }
+      }
+    }
     fit_of[static_cast<std::size_t>(h)] = fit;
     if (fit > best_fit) {
       best_fit = fit;

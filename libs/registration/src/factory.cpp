@@ -10,10 +10,26 @@ namespace obm::registration {
 
 ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   ObmNetMatcherParams p;
-  node.checkKeys({"model_path", "num_points", "threads", "seed", "denoise_neighbors",
-                  "soft_sampling", "pre_align", "keep_init_if_better", "overlap_stage_keep",
-                  "overlap_stage_gate_factor", "yaw_hypotheses", "refine_hypotheses",
-                  "init_headings", "init_headings_gate", "init_headings_margin"});
+  node.checkKeys({"model_path",
+                  "num_points",
+                  "threads",
+                  "seed",
+                  "denoise_neighbors",
+                  "soft_sampling",
+                  "pre_align",
+                  "keep_init_if_better",
+                  "overlap_stage_keep",
+                  "overlap_stage_gate_factor",
+                  "yaw_hypotheses",
+                  "refine_hypotheses",
+                  "init_headings",
+                  "init_headings_gate",
+                  "init_headings_margin",
+                  "iterations",
+                  "ransac_iterations",
+                  "ransac_candidates",
+                  "ransac_inlier_spacing",
+                  "ransac_max_turn_deg"});
   p.model_path = node.required<std::string>("model_path");
   node.get("num_points", p.num_points);
   node.get("threads", p.threads);
@@ -26,6 +42,21 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   node.get("overlap_stage_gate_factor", p.overlap_stage_gate_factor);
   node.get("yaw_hypotheses", p.yaw_hypotheses);
   if (p.yaw_hypotheses < 0) throw ConfigError(node.where("yaw_hypotheses") + ": must be >= 0");
+  node.get("iterations", p.iterations);
+  if (p.iterations < 0)
+    throw ConfigError(node.where("iterations") + ": must be >= 0 (0 = the model's)");
+  node.get("ransac_iterations", p.ransac_iterations);
+  if (p.ransac_iterations < 0)
+    throw ConfigError(node.where("ransac_iterations") + ": must be >= 0 (0 = off)");
+  node.get("ransac_candidates", p.ransac_candidates);
+  if (p.ransac_candidates < 1 || p.ransac_candidates > 4)
+    throw ConfigError(node.where("ransac_candidates") + ": must be in [1, 4]");
+  node.get("ransac_inlier_spacing", p.ransac_inlier_spacing);
+  if (!(p.ransac_inlier_spacing > 0.0))
+    throw ConfigError(node.where("ransac_inlier_spacing") + ": must be > 0");
+  node.get("ransac_max_turn_deg", p.ransac_max_turn_deg);
+  if (!(p.ransac_max_turn_deg > 0.0 && p.ransac_max_turn_deg <= 180.0))
+    throw ConfigError(node.where("ransac_max_turn_deg") + ": must be in (0, 180]");
   node.get("refine_hypotheses", p.refine_hypotheses);
   if (p.refine_hypotheses < 0)
     throw ConfigError(node.where("refine_hypotheses") + ": must be >= 0 (0 = all)");

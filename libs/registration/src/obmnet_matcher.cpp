@@ -35,6 +35,11 @@ obmnet::ObmNetRegistrar makeRegistrar(const ObmNetMatcherParams& p) {
   o.denoise_neighbors = p.denoise_neighbors;
   o.soft_sampling = p.soft_sampling;
   o.yaw_hypotheses = p.yaw_hypotheses;
+  o.iterations = p.iterations;
+  o.ransac_iterations = p.ransac_iterations;
+  o.match_candidates = p.ransac_candidates;
+  o.ransac_inlier_spacing = p.ransac_inlier_spacing;
+  o.ransac_max_turn_deg = p.ransac_max_turn_deg;
   return obmnet::ObmNetRegistrar(o);
 }
 

@@ -13,6 +13,9 @@
 namespace obm::obmnet {
 
 /// Outputs of one forward pass. (R, t) is T_target_source: q ≈ R·p + t.
+/// Match candidates per source point kept in ObmNetOutput (fewer when the target is smaller).
+inline constexpr int64_t kMatchCandidates = 4;
+
 struct ObmNetOutput {
   torch::Tensor R;        ///< B×3×3 rotation, composed over the iterations
   torch::Tensor t;        ///< B×3 translation
@@ -24,6 +27,11 @@ struct ObmNetOutput {
   /// B×N membership m_i = 1 − (1 − π_i)^K of each source point in the sampled overlap region
   /// (last iteration; ones without BP): where α applies in the weighted SVD.
   torch::Tensor membership;
+  /// B×N×C indices of each source point's C = kMatchCandidates most probable target points in the
+  /// last iteration's matching map M^r (int64, most probable first), and B×N×C those
+  /// probabilities: the network's putative correspondences, for a robust estimator beside the
+  /// weighted SVD (ObmNetRegistrar::Options::ransac_iterations).
+  torch::Tensor match_index, match_prob;
   /// Scalars (summed over iterations, mean over the batch); defined only when compute_loss.
   torch::Tensor loss, loss_global, loss_neighbor, loss_spatial;
 };
@@ -50,6 +58,10 @@ class ObmNetImpl : public torch::nn::Module {
   /// Overrides ObmNetConfig::soft_inference_sampling of the loaded weights (an inference choice;
   /// the weights do not change).
   void setSoftInferenceSampling(bool soft);
+
+  /// Overrides ObmNetConfig::n_iters for inference: the iterations share their weights, so a
+  /// pass may run more of them than training did (a larger start offset is closed in more steps).
+  void setIterations(int n_iters);
 
   /// Restarts the train-mode Gumbel noise stream from `seed`. The trainer seeds it per step from
   /// (seed, epoch, step, rank), so a run resumed from a checkpoint draws the noise the

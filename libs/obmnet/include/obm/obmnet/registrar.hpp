@@ -82,6 +82,27 @@ class ObmNetRegistrar {
     /// never moves a pair further from a good guess than its own score allows (consecutive
     /// sweeps, where not moving is often closer than the network's estimate).
     bool keep_start_if_fitter = false;
+    /// Registration iterations of one pass (0 = the model's n_iters). The iterations share their
+    /// weights; more of them than training ran let the network close larger start offsets in
+    /// steps (sweeps far apart), each step from the source as the previous ones moved it.
+    int iterations = 0;
+    /// A robust estimator on the network's correspondences (0 = off): RANSAC with this many
+    /// minimal samples over the pairs (source point, its most probable target point in the last
+    /// iteration's matching map), 4-DoF for planar models. Per hypothesis, the RANSAC pose replaces
+    /// the weighted SVD's when it is fitter. The weighted SVD averages every pair, so a minority of
+    /// wrong matches far away pulls it off by metres on sweeps far apart; a consensus set ignores
+    /// them.
+    int ransac_iterations = 0;
+    /// Target candidates per source point given to RANSAC, most probable first (1 … 4); a source
+    /// point counts once in the consensus however many of its candidates agree.
+    int match_candidates = 4;
+    /// RANSAC's inlier distance in target point spacings (the median distance of a target point
+    /// to its nearest neighbour): true pairs of two independent samplings lie about one spacing
+    /// apart.
+    double ransac_inlier_spacing = 1.0;
+    /// Planar models: RANSAC keeps to poses turned at most this far from their hypothesis's
+    /// heading [deg] — the ±45° a network pass was trained to cover.
+    double ransac_max_turn_deg = 45.0;
   };
 
   /// Loads the model. A missing, corrupt or mismatched file throws IoError / FormatError naming it.

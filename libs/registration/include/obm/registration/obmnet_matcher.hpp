@@ -48,6 +48,15 @@ struct ObmNetMatcherParams {
   /// Yaw hypotheses of the network stage (ObmNetRegistrar::Options::yaw_hypotheses): 0 = the
   /// model's default (4 for a planar LiDAR model, else 1), 1 = off.
   int yaw_hypotheses = 0;
+  /// Registration iterations of the network pass (ObmNetRegistrar::Options::iterations): 0 = the
+  /// model's n_iters.
+  int iterations = 0;
+  /// RANSAC samples on the network's correspondences (ObmNetRegistrar::Options::ransac_iterations;
+  /// 0 = off, the weighted SVD alone).
+  int ransac_iterations = 0;
+  int ransac_candidates = 4;           ///< target candidates per source point (1 … 4)
+  double ransac_inlier_spacing = 1.0;  ///< RANSAC's inlier distance [target point spacings]
+  double ransac_max_turn_deg = 45.0;   ///< planar: RANSAC poses within this of their hypothesis
   /// ObmNetIcpMatcher: how many of the network's yaw hypotheses ICP refines, fittest first by the
   /// network's own fitness (1 = only the fittest; 0 = all). The refinement with the most inliers
   /// (source points within ConfidenceParams::inlier_threshold) is returned, with the α and
