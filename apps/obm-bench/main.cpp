@@ -47,6 +47,9 @@ struct NetRun {
   int iterations = 0;      ///< registration iterations per pass; 0 = the model's (--iterations)
   int yaw_hypotheses = 0;  ///< 0 = the model's (--yaw-hypotheses)
   int ransac = 0;          ///< RANSAC samples on the network's correspondences (--ransac)
+  /// With `ransac`: hypotheses ranked by their RANSAC consensus (the +consensus rows, the library's
+  /// default) or by their fitness (the +ransac rows).
+  bool by_consensus = false;
 };
 
 /// `keep_start`: the network's start competes with its poses on their fitness
@@ -57,12 +60,16 @@ bench::Method obmnetMethod(const std::string& name, const NetRun& net, bool keep
   o.iterations = net.iterations;
   o.yaw_hypotheses = net.yaw_hypotheses;
   o.ransac_iterations = net.ransac;
+  o.select_by_consensus = net.by_consensus;
   o.keep_start_if_fitter = keep_start;
   auto reg = std::make_shared<obmnet::ObmNetRegistrar>(o);
   return {name, [reg](const PointCloud& s, const PointCloud& t) {
             const obmnet::RegistrationResult r = reg->align(s, t);
             bench::MethodResult out(r.T_target_source);
             out.scores = {{"keypoint_fitness", r.fitness}, {"overlap", r.overlap}};
+            // With RANSAC: the share of source points in the returned hypothesis's consensus.
+            if (!r.hypotheses.empty() && r.hypotheses.front().consensus >= 0.0)
+              out.scores.push_back({"consensus", r.hypotheses.front().consensus});
             return out;
           }};
 }
@@ -137,6 +144,7 @@ std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(const NetRun& n
   p.iterations = net.iterations;
   p.yaw_hypotheses = net.yaw_hypotheses;
   p.ransac_iterations = net.ransac;
+  p.select_by_consensus = net.by_consensus;
   p.model_path = net.model;
   p.num_points = net.num_points;
   p.threads = net.threads;
@@ -561,6 +569,15 @@ int main(int argc, char** argv) {
                                         obmnetIcpMatcher(net_r, unit, polish, overlap_keep)));
         methods.push_back(matcherMethod("obmnet+ransac+icp-all+yaw4",
                                         obmnetIcpMatcher(net_r, unit, polish, overlap_keep, 0, 4)));
+        // The same passes, the hypotheses ranked by their consensus share instead of their
+        // fitness (ObmNetRegistrar::Options::select_by_consensus).
+        NetRun net_c = net_r;
+        net_c.by_consensus = true;
+        methods.push_back(obmnetMethod("obmnet+consensus", net_c));
+        methods.push_back(matcherMethod("obmnet+consensus+icp",
+                                        obmnetIcpMatcher(net_c, unit, polish, overlap_keep)));
+        methods.push_back(matcherMethod("obmnet+consensus+icp-all+yaw4",
+                                        obmnetIcpMatcher(net_c, unit, polish, overlap_keep, 0, 4)));
       }
       auto o3d = bench::open3dMethods(scaledOpen3dParams(unit));
       for (const auto& m : o3d) methods.push_back(m);

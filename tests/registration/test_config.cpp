@@ -145,7 +145,10 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
       "pre_align: false, keep_init_if_better: false, overlap_stage_keep: 0.3, "
       "overlap_stage_gate_factor: 3, refine_hypotheses: 0, init_headings: 8, "
       "init_headings_gate: 5, init_headings_margin: 1.2, iterations: 4, ransac_iterations: 3000, "
-      "ransac_candidates: 2, ransac_inlier_spacing: 1.5, ransac_max_turn_deg: 30}"));
+      "ransac_candidates: 2, ransac_inlier_spacing: 1.5, ransac_max_turn_deg: 30, "
+      "select_by_consensus: false}"));
+  EXPECT_FALSE(s.obmnet.select_by_consensus);
+  EXPECT_TRUE(c.obmnet.select_by_consensus);
   EXPECT_EQ(s.obmnet.iterations, 4);
   EXPECT_EQ(s.obmnet.ransac_iterations, 3000);
   EXPECT_EQ(s.obmnet.ransac_candidates, 2);

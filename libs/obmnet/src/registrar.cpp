@@ -167,10 +167,16 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
     }
     return static_cast<double>(in) / static_cast<double>(std::max<std::size_t>(1, src.size()));
   };
+  // Which score chooses among the hypotheses: the fitness of their poses, or (select_by_consensus)
+  // the share of source points in RANSAC's consensus on the network's own matches. The two differ
+  // where a wrong pose lies on repeated structure (a street turned round): its points still land
+  // near target points, but the network's matches do not agree on it.
+  const bool by_consensus = impl_->opt.select_by_consensus && impl_->opt.ransac_iterations > 0;
   int best = 0;
-  double best_fit = -1.0;
+  double best_score = -1.0;
   std::vector<Isometry3d> T_hat(static_cast<std::size_t>(H));
   std::vector<double> fit_of(static_cast<std::size_t>(H), 0.0);
+  std::vector<double> consensus_of(static_cast<std::size_t>(H), -1.0);
   for (int h = 0; h < H; ++h) {
     const auto R = o.R[h].to(torch::kFloat64).contiguous();
     const auto t = o.t[h].to(torch::kFloat64).contiguous();
@@ -184,7 +190,7 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
     double fit = fitness(T_hat[static_cast<std::size_t>(h)]);
     if (impl_->opt.ransac_iterations > 0) {
       // The network's putative pairs for this hypothesis: each (turned) source point and its most
-      // probable target point; a consensus pose from them competes with the weighted SVD's.
+      // probable target points; a consensus pose from them competes with the weighted SVD's.
       const Isometry3d T_turn = turn(Rz[static_cast<std::size_t>(h)]);
       const auto idx = o.match_index[h].contiguous();
       const auto prob = o.match_prob[h].to(torch::kFloat64).contiguous();
@@ -214,6 +220,10 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
           impl_->opt.ransac_inlier_spacing * std::sqrt(static_cast<double>(spacing[M / 2]));
       rp.seed = impl_->opt.seed + static_cast<std::uint64_t>(h) + 1;
       const RansacPoseResult rr = ransacPose(ps, qs, rp, ws);
+      consensus_of[static_cast<std::size_t>(h)] =
+          rr.ok ? static_cast<double>(rr.inliers) /
+                      static_cast<double>(std::max<std::size_t>(1, src.size()))
+                : 0.0;
       if (rr.ok) {
         const Isometry3d T_r = rr.T_target_source * T_turn;
         const double fit_r = fitness(T_r);
@@ -224,11 +234,13 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
       }
     }
     fit_of[static_cast<std::size_t>(h)] = fit;
-    if (fit > best_fit) {
-      best_fit = fit;
+    const double score = by_consensus ? consensus_of[static_cast<std::size_t>(h)] : fit;
+    if (score > best_score) {
+      best_score = score;
       best = h;
     }
   }
+  const double best_fit = fit_of[static_cast<std::size_t>(best)];
   r.T_target_source = norm.denormalize(T_hat[static_cast<std::size_t>(best)]);
   r.fitness = best_fit;
   r.hypothesis_yaw_deg = 360.0 * best / H;
@@ -247,6 +259,7 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
     y.T_target_source = norm.denormalize(T_hat[static_cast<std::size_t>(h)]);
     y.yaw_deg = 360.0 * h / H;
     y.fitness = fit_of[static_cast<std::size_t>(h)];
+    y.consensus = consensus_of[static_cast<std::size_t>(h)];
     y.alpha = o.alpha[h].item<double>();
     y.overlap = o.overlap[h].item<double>();
     const auto w = o.weights[h].contiguous();
@@ -254,10 +267,12 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
     y.inlier_weights.assign(w.data_ptr<float>(), w.data_ptr<float>() + w.numel());
     y.overlap_membership.assign(m.data_ptr<float>(), m.data_ptr<float>() + m.numel());
   }
-  // Fittest first; ties keep the yaw order, so hypotheses.front() is the pass `best` chose.
-  std::stable_sort(
-      r.hypotheses.begin(), r.hypotheses.end(),
-      [](const YawHypothesis& a, const YawHypothesis& b) { return a.fitness > b.fitness; });
+  // Best first by the score that chose; ties keep the yaw order, so hypotheses.front() is the
+  // pass `best` chose.
+  std::stable_sort(r.hypotheses.begin(), r.hypotheses.end(),
+                   [by_consensus](const YawHypothesis& a, const YawHypothesis& b) {
+                     return by_consensus ? a.consensus > b.consensus : a.fitness > b.fitness;
+                   });
   r.alpha = r.hypotheses.front().alpha;
   r.overlap = r.hypotheses.front().overlap;
   r.inlier_weights = r.hypotheses.front().inlier_weights;

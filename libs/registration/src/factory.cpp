@@ -29,7 +29,8 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
                   "ransac_iterations",
                   "ransac_candidates",
                   "ransac_inlier_spacing",
-                  "ransac_max_turn_deg"});
+                  "ransac_max_turn_deg",
+                  "select_by_consensus"});
   p.model_path = node.required<std::string>("model_path");
   node.get("num_points", p.num_points);
   node.get("threads", p.threads);
@@ -57,6 +58,7 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   node.get("ransac_max_turn_deg", p.ransac_max_turn_deg);
   if (!(p.ransac_max_turn_deg > 0.0 && p.ransac_max_turn_deg <= 180.0))
     throw ConfigError(node.where("ransac_max_turn_deg") + ": must be in (0, 180]");
+  node.get("select_by_consensus", p.select_by_consensus);
   node.get("refine_hypotheses", p.refine_hypotheses);
   if (p.refine_hypotheses < 0)
     throw ConfigError(node.where("refine_hypotheses") + ": must be >= 0 (0 = all)");

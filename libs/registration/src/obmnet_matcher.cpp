@@ -40,6 +40,7 @@ obmnet::ObmNetRegistrar makeRegistrar(const ObmNetMatcherParams& p) {
   o.match_candidates = p.ransac_candidates;
   o.ransac_inlier_spacing = p.ransac_inlier_spacing;
   o.ransac_max_turn_deg = p.ransac_max_turn_deg;
+  o.select_by_consensus = p.select_by_consensus;
   return obmnet::ObmNetRegistrar(o);
 }
 

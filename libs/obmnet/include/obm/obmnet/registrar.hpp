@@ -19,6 +19,9 @@ struct YawHypothesis {
   Isometry3d T_target_source = Isometry3d::Identity();  ///< input frames, like the result's
   double yaw_deg = 0.0;  ///< the turn of the source before the network [deg]
   double fitness = 0.0;  ///< RegistrationResult::fitness of this pose
+  /// Share of the sampled source points in RANSAC's consensus on this pass's matches (−1 without
+  /// Options::ransac_iterations).
+  double consensus = -1.0;
   double alpha = 1.0;    ///< α of this pass
   double overlap = 1.0;  ///< overlap estimate of this pass
   std::vector<float> inlier_weights, overlap_membership;  ///< as in RegistrationResult
@@ -41,7 +44,7 @@ struct RegistrationResult {
   double runtime_ms = 0.0;  ///< wall time of the call (sampling + network)
   /// Fraction of the sampled source points whose nearest sampled target point lies within twice
   /// the target's median point spacing at the returned pose: the score that chose among the yaw
-  /// hypotheses (computed for every call).
+  /// hypotheses unless Options::select_by_consensus (computed for every call).
   double fitness = 0.0;
   /// Yaw of the hypothesis the returned pose started from [deg] (0 with a single hypothesis).
   double hypothesis_yaw_deg = 0.0;
@@ -49,7 +52,8 @@ struct RegistrationResult {
   /// (the pose it was given: the identity of the clouds as passed, after the pair
   /// normalisation), which is returned instead.
   bool kept_start = false;
-  /// Every yaw hypothesis, fittest first (one entry with a single hypothesis), for callers that
+  /// Every yaw hypothesis, best first by the score that chose (fitness, or the consensus with
+  /// Options::select_by_consensus; one entry with a single hypothesis), for callers that
   /// verify more than the fittest (ObmNetIcpMatcher's refine_hypotheses).
   std::vector<YawHypothesis> hypotheses;
 };
@@ -103,6 +107,12 @@ class ObmNetRegistrar {
     /// Planar models: RANSAC keeps to poses turned at most this far from their hypothesis's
     /// heading [deg] — the ±45° a network pass was trained to cover.
     double ransac_max_turn_deg = 45.0;
+    /// With ransac_iterations: choose among the yaw hypotheses (and order
+    /// RegistrationResult::hypotheses) by the share of source points in each pass's RANSAC
+    /// consensus (true) or by the fitness of its pose (false). The fitness rewards any pose that
+    /// puts points near points, also a street seen turned round; the consensus asks that the
+    /// network's own matches agree on the pose. Without RANSAC the fitness chooses.
+    bool select_by_consensus = true;
   };
 
   /// Loads the model. A missing, corrupt or mismatched file throws IoError / FormatError naming it.

@@ -57,6 +57,9 @@ struct ObmNetMatcherParams {
   int ransac_candidates = 4;           ///< target candidates per source point (1 … 4)
   double ransac_inlier_spacing = 1.0;  ///< RANSAC's inlier distance [target point spacings]
   double ransac_max_turn_deg = 45.0;   ///< planar: RANSAC poses within this of their hypothesis
+  /// With ransac_iterations: the yaw hypotheses ranked by their RANSAC consensus (true) or by
+  /// their fitness (ObmNetRegistrar::Options::select_by_consensus).
+  bool select_by_consensus = true;
   /// ObmNetIcpMatcher: how many of the network's yaw hypotheses ICP refines, fittest first by the
   /// network's own fitness (1 = only the fittest; 0 = all). The refinement with the most inliers
   /// (source points within ConfidenceParams::inlier_threshold) is returned, with the α and
