@@ -227,7 +227,12 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
       if (rr.ok) {
         const Isometry3d T_r = rr.T_target_source * T_turn;
         const double fit_r = fitness(T_r);
-        if (fit_r > fit) {
+        // Ranked by consensus, the consensus pose stands for its hypothesis whenever RANSAC found
+        // one; ranked by fitness, it replaces the weighted SVD's pose only when fitter. The
+        // fitness, within one spacing of a true pose, cannot tell a pose 0.3 m off from the right
+        // one on consecutive sweeps; the consensus pose is the least-squares fit of the agreeing
+        // matches.
+        if (by_consensus || fit_r > fit) {
           fit = fit_r;
           T_hat[static_cast<std::size_t>(h)] = T_r;
         }

@@ -93,9 +93,9 @@ class ObmNetRegistrar {
     /// A robust estimator on the network's correspondences (0 = off): RANSAC with this many
     /// minimal samples over the pairs (source point, its most probable target point in the last
     /// iteration's matching map), 4-DoF for planar models. Per hypothesis, the RANSAC pose replaces
-    /// the weighted SVD's when it is fitter. The weighted SVD averages every pair, so a minority of
-    /// wrong matches far away pulls it off by metres on sweeps far apart; a consensus set ignores
-    /// them.
+    /// the weighted SVD's (see select_by_consensus for when). The weighted SVD averages every pair,
+    /// so a minority of wrong matches far away pulls it off by metres on sweeps far apart; a
+    /// consensus set ignores them.
     int ransac_iterations = 0;
     /// Target candidates per source point given to RANSAC, most probable first (1 … 4); a source
     /// point counts once in the consensus however many of its candidates agree.
@@ -109,9 +109,11 @@ class ObmNetRegistrar {
     double ransac_max_turn_deg = 45.0;
     /// With ransac_iterations: choose among the yaw hypotheses (and order
     /// RegistrationResult::hypotheses) by the share of source points in each pass's RANSAC
-    /// consensus (true) or by the fitness of its pose (false). The fitness rewards any pose that
-    /// puts points near points, also a street seen turned round; the consensus asks that the
-    /// network's own matches agree on the pose. Without RANSAC the fitness chooses.
+    /// consensus, each hypothesis's pose being its consensus pose (true), or by the fitness of
+    /// their poses, the consensus pose replacing the weighted SVD's only when fitter (false). The
+    /// fitness rewards any pose that puts points near points, also a street seen turned round; the
+    /// consensus asks that the network's own matches agree on the pose. Without RANSAC the fitness
+    /// chooses.
     bool select_by_consensus = true;
   };
 
