@@ -561,23 +561,20 @@ int main(int argc, char** argv) {
         methods.push_back(obmnetIcpOrIcpMethod(net_icp, icp));
       // The network's correspondences given to RANSAC beside its weighted SVD
       // (ObmNetRegistrar::Options::ransac_iterations); on request (--methods).
+      // The `ransac` rows rank the yaw hypotheses by their fitness, the `consensus` rows by their
+      // consensus share (ObmNetRegistrar::Options::select_by_consensus).
       if (!methods_arg.empty() && ransac > 0) {
-        NetRun net_r = net;
-        net_r.ransac = ransac;
-        methods.push_back(obmnetMethod("obmnet+ransac", net_r));
-        methods.push_back(matcherMethod("obmnet+ransac+icp",
-                                        obmnetIcpMatcher(net_r, unit, polish, overlap_keep)));
-        methods.push_back(matcherMethod("obmnet+ransac+icp-all+yaw4",
-                                        obmnetIcpMatcher(net_r, unit, polish, overlap_keep, 0, 4)));
-        // The same passes, the hypotheses ranked by their consensus share instead of their
-        // fitness (ObmNetRegistrar::Options::select_by_consensus).
-        NetRun net_c = net_r;
-        net_c.by_consensus = true;
-        methods.push_back(obmnetMethod("obmnet+consensus", net_c));
-        methods.push_back(matcherMethod("obmnet+consensus+icp",
-                                        obmnetIcpMatcher(net_c, unit, polish, overlap_keep)));
-        methods.push_back(matcherMethod("obmnet+consensus+icp-all+yaw4",
-                                        obmnetIcpMatcher(net_c, unit, polish, overlap_keep, 0, 4)));
+        for (const bool by_consensus : {false, true}) {
+          NetRun net_r = net;
+          net_r.ransac = ransac;
+          net_r.by_consensus = by_consensus;
+          const std::string row = by_consensus ? "obmnet+consensus" : "obmnet+ransac";
+          methods.push_back(obmnetMethod(row, net_r));
+          methods.push_back(
+              matcherMethod(row + "+icp", obmnetIcpMatcher(net_r, unit, polish, overlap_keep)));
+          methods.push_back(matcherMethod(
+              row + "+icp-all+yaw4", obmnetIcpMatcher(net_r, unit, polish, overlap_keep, 0, 4)));
+        }
       }
       auto o3d = bench::open3dMethods(scaledOpen3dParams(unit));
       for (const auto& m : o3d) methods.push_back(m);

@@ -187,7 +187,8 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
         makeIsometry(orthonormalize(Rm), Eigen::Vector3d(t[0].item<double>(), t[1].item<double>(),
                                                          t[2].item<double>())) *
         turn(Rz[static_cast<std::size_t>(h)]);
-    double fit = fitness(T_hat[static_cast<std::size_t>(h)]);
+    bool have_consensus_pose = false;
+    Isometry3d T_r = Isometry3d::Identity();
     if (impl_->opt.ransac_iterations > 0) {
       // The network's putative pairs for this hypothesis: each (turned) source point and its most
       // probable target points; a consensus pose from them competes with the weighted SVD's.
@@ -224,15 +225,23 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
           rr.ok ? static_cast<double>(rr.inliers) /
                       static_cast<double>(std::max<std::size_t>(1, src.size()))
                 : 0.0;
-      if (rr.ok) {
-        const Isometry3d T_r = rr.T_target_source * T_turn;
+      have_consensus_pose = rr.ok;
+      if (rr.ok) T_r = rr.T_target_source * T_turn;
+    }
+    // Ranked by consensus, the consensus pose stands for its hypothesis whenever RANSAC found one
+    // (the weighted SVD's pose is then not scored at all); ranked by fitness, it replaces the
+    // weighted SVD's pose only when fitter. The fitness, within one spacing of a true pose, cannot
+    // tell a pose 0.3 m off from the right one on consecutive sweeps; the consensus pose is the
+    // least-squares fit of the agreeing matches.
+    double fit = 0.0;
+    if (by_consensus && have_consensus_pose) {
+      T_hat[static_cast<std::size_t>(h)] = T_r;
+      fit = fitness(T_r);
+    } else {
+      fit = fitness(T_hat[static_cast<std::size_t>(h)]);
+      if (have_consensus_pose) {
         const double fit_r = fitness(T_r);
-        // Ranked by consensus, the consensus pose stands for its hypothesis whenever RANSAC found
-        // one; ranked by fitness, it replaces the weighted SVD's pose only when fitter. The
-        // fitness, within one spacing of a true pose, cannot tell a pose 0.3 m off from the right
-        // one on consecutive sweeps; the consensus pose is the least-squares fit of the agreeing
-        // matches.
-        if (by_consensus || fit_r > fit) {
+        if (fit_r > fit) {
           fit = fit_r;
           T_hat[static_cast<std::size_t>(h)] = T_r;
         }

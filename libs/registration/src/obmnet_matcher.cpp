@@ -52,7 +52,8 @@ struct NetworkStage {
   double alpha = 1.0, overlap = 0.0;
   std::vector<Vector3f> sampled;  ///< the network's source points, source frame
   std::vector<double> prior;      ///< w_i·(1 + α·m_i): the network's SVD weights (docs/model.md)
-  /// The same for every yaw hypothesis, fittest first (the fields above are the first's).
+  /// The same for every yaw hypothesis, best first by the registrar's ranking (the fields above are
+  /// the first's).
   struct Hypothesis {
     Isometry3d T_target_source = Isometry3d::Identity();
     double alpha = 1.0, overlap = 0.0;
@@ -60,7 +61,7 @@ struct NetworkStage {
   };
   std::vector<Hypothesis> hypotheses;
 
-  /// This stage as if hypothesis k had been the fittest.
+  /// This stage as if hypothesis k had been ranked first.
   NetworkStage withHypothesis(std::size_t k) const {
     NetworkStage s = *this;
     s.T_target_source = hypotheses[k].T_target_source;

@@ -44,7 +44,7 @@ struct RegistrationResult {
   double runtime_ms = 0.0;  ///< wall time of the call (sampling + network)
   /// Fraction of the sampled source points whose nearest sampled target point lies within twice
   /// the target's median point spacing at the returned pose: the score that chose among the yaw
-  /// hypotheses unless Options::select_by_consensus (computed for every call).
+  /// hypotheses unless Options::select_by_consensus with RANSAC (computed for every call).
   double fitness = 0.0;
   /// Yaw of the hypothesis the returned pose started from [deg] (0 with a single hypothesis).
   double hypothesis_yaw_deg = 0.0;

@@ -60,8 +60,9 @@ struct ObmNetMatcherParams {
   /// With ransac_iterations: the yaw hypotheses ranked by their RANSAC consensus (true) or by
   /// their fitness (ObmNetRegistrar::Options::select_by_consensus).
   bool select_by_consensus = true;
-  /// ObmNetIcpMatcher: how many of the network's yaw hypotheses ICP refines, fittest first by the
-  /// network's own fitness (1 = only the fittest; 0 = all). The refinement with the most inliers
+  /// ObmNetIcpMatcher: how many of the network's yaw hypotheses ICP refines, best first by the
+  /// network's own ranking (its fitness, or its consensus with select_by_consensus; 1 = only the
+  /// first; 0 = all). The refinement with the most inliers
   /// (source points within ConfidenceParams::inlier_threshold) is returned, with the α and
   /// weights of its hypothesis.
   /// For pairs without a heading prior (loop candidates, relocalisation), where the network's
