@@ -282,16 +282,14 @@ TEST(ScanPairs, SurfaceSamplesComeWithUnitNormals) {
   EXPECT_TRUE(none.target_surface.empty());
 }
 
-TEST(Registrar, YawHypothesesAreSearchedInOneBatchAndTheBestFitIsKept) {
-  // An untrained planar network: what is checked is the search. Four hypotheses are tried (the
-  // default for a planar model), the returned one is one of them, its fitness is at least that of
-  // the single pass (which is hypothesis 0 of the four), and the pose has no roll or pitch.
-  // Both pivots of the hypotheses: the source's centroid, and its sensor (shared_centroid models).
-  for (const bool shared : {false, true}) {
-  SCOPED_TRACE(shared ? "shared centroid" : "separate centroids");
-  const std::string path = test::scratchDir("registrar_yaw") + "/planar.pt";
+namespace {
+
+/// An untrained planar network of the registrar tests (what they check is the search, not
+/// the weights), saved in `dir`.
+std::string savePlanarModel(const std::string& dir, bool shared_centroid) {
+  const std::string path = dir + "/planar.pt";
   obmnet::ObmNetConfig c;
-  c.shared_centroid = shared;
+  c.shared_centroid = shared_centroid;
   c.emb_dims = 16;
   c.n_samples = 4;
   c.n_iters = 1;
@@ -303,7 +301,11 @@ TEST(Registrar, YawHypothesesAreSearchedInOneBatchAndTheBestFitIsKept) {
   meta.num_points = 256;
   meta.description = "unit test";
   saveModel(path, net, meta);
-  // An L-shaped corner seen from a car turned by 180°.
+  return path;
+}
+
+/// An L-shaped corner of two walls on a road, as a car's sensor sees it.
+PointCloud cornerScene() {
   PointCloud scene;
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<float> U(0.f, 1.f);
@@ -313,24 +315,83 @@ TEST(Registrar, YawHypothesesAreSearchedInOneBatchAndTheBestFitIsKept) {
     else if (i % 3 == 1) scene.points.emplace_back(0.f, 12.f * a, 5.f * b);
     else scene.points.emplace_back(30.f * a, 12.f * b, 0.f);
   }
+  return scene;
+}
+
+}  // namespace
+
+TEST(Registrar, YawHypothesesAreSearchedInOneBatchAndTheBestFitIsKept) {
+  // An untrained planar network: what is checked is the search. Four hypotheses are tried (the
+  // default for a planar model), the returned one is one of them, its fitness is at least that of
+  // the single pass (which is hypothesis 0 of the four), and the pose has no roll or pitch.
+  // Both pivots of the hypotheses: the source's centroid, and its sensor (shared_centroid models).
+  for (const bool shared : {false, true}) {
+    SCOPED_TRACE(shared ? "shared centroid" : "separate centroids");
+    const std::string path = savePlanarModel(test::scratchDir("registrar_yaw"), shared);
+    const PointCloud scene = cornerScene();
+    Isometry3d T_true = Isometry3d::Identity();
+    T_true.linear() = Eigen::AngleAxisd(kPi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    T_true.translation() = Eigen::Vector3d(3.0, -2.0, 0.0);
+    const PointCloud source = scene.transformed(T_true.inverse(), "source");
+    obmnet::ObmNetRegistrar::Options o;
+    o.model_path = path;
+    o.threads = 1;
+    const auto r4 = obmnet::ObmNetRegistrar(o).align(source, scene);
+    o.yaw_hypotheses = 1;
+    const auto r1 = obmnet::ObmNetRegistrar(o).align(source, scene);
+    const double h = r4.hypothesis_yaw_deg;
+    EXPECT_TRUE(h == 0.0 || h == 90.0 || h == 180.0 || h == 270.0) << h;
+    EXPECT_DOUBLE_EQ(r1.hypothesis_yaw_deg, 0.0);
+    EXPECT_GE(r4.fitness, r1.fitness);
+    EXPECT_GT(r4.fitness, 0.0);
+    EXPECT_LE(r4.fitness, 1.0);
+    EXPECT_NEAR(r4.T_target_source.linear()(2, 2), 1.0, 1e-6);
+    EXPECT_NEAR(r1.T_target_source.linear()(2, 2), 1.0, 1e-6);
+  }
+}
+
+TEST(Registrar, WithRansacEveryHypothesisCarriesItsConsensusRankedAsAsked) {
+  // ransac_iterations > 0: each yaw hypothesis reports the share of source points in RANSAC's
+  // consensus on its pass's matches, and the hypotheses are listed best first by the consensus
+  // (select_by_consensus) or by the fitness of their poses; the first is the returned pose. The
+  // RANSAC is seeded: the same call gives the same pose. Without RANSAC no consensus is reported.
+  const std::string path = savePlanarModel(test::scratchDir("registrar_ransac"), false);
+  const PointCloud scene = cornerScene();
   Isometry3d T_true = Isometry3d::Identity();
-  T_true.linear() = Eigen::AngleAxisd(kPi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  T_true.translation() = Eigen::Vector3d(3.0, -2.0, 0.0);
+  T_true.linear() = Eigen::AngleAxisd(0.6 * kPi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T_true.translation() = Eigen::Vector3d(2.0, 1.0, 0.0);
   const PointCloud source = scene.transformed(T_true.inverse(), "source");
   obmnet::ObmNetRegistrar::Options o;
   o.model_path = path;
   o.threads = 1;
-  const auto r4 = obmnet::ObmNetRegistrar(o).align(source, scene);
-  o.yaw_hypotheses = 1;
-  const auto r1 = obmnet::ObmNetRegistrar(o).align(source, scene);
-  const double h = r4.hypothesis_yaw_deg;
-  EXPECT_TRUE(h == 0.0 || h == 90.0 || h == 180.0 || h == 270.0) << h;
-  EXPECT_DOUBLE_EQ(r1.hypothesis_yaw_deg, 0.0);
-  EXPECT_GE(r4.fitness, r1.fitness);
-  EXPECT_GT(r4.fitness, 0.0);
-  EXPECT_LE(r4.fitness, 1.0);
-  EXPECT_NEAR(r4.T_target_source.linear()(2, 2), 1.0, 1e-6);
-  EXPECT_NEAR(r1.T_target_source.linear()(2, 2), 1.0, 1e-6);
+  o.yaw_hypotheses = 4;
+  const auto plain = obmnet::ObmNetRegistrar(o).align(source, scene);
+  for (const auto& y : plain.hypotheses) EXPECT_EQ(y.consensus, -1.0) << "yaw " << y.yaw_deg;
+  o.ransac_iterations = 300;
+  for (const bool by_consensus : {true, false}) {
+    SCOPED_TRACE(by_consensus ? "ranked by consensus" : "ranked by fitness");
+    o.select_by_consensus = by_consensus;
+    const auto r = obmnet::ObmNetRegistrar(o).align(source, scene);
+    ASSERT_EQ(r.hypotheses.size(), 4u);
+    for (std::size_t h = 0; h < r.hypotheses.size(); ++h) {
+      const auto& y = r.hypotheses[h];
+      std::printf("yaw %5.1f deg: consensus %.3f, fitness %.3f\n", y.yaw_deg, y.consensus,
+                  y.fitness);
+      EXPECT_GE(y.consensus, 0.0) << "hypothesis " << h;
+      EXPECT_LE(y.consensus, 1.0) << "hypothesis " << h;
+      EXPECT_NEAR(y.T_target_source.linear()(2, 2), 1.0, 1e-6) << "a planar pose, hypothesis " << h;
+      if (h == 0) continue;
+      if (by_consensus) {
+        EXPECT_LE(y.consensus, r.hypotheses[h - 1].consensus) << "hypothesis " << h;
+      } else {
+        EXPECT_LE(y.fitness, r.hypotheses[h - 1].fitness) << "hypothesis " << h;
+      }
+    }
+    EXPECT_GT(r.hypotheses.front().consensus, 0.0) << "no consensus on any hypothesis";
+    EXPECT_TRUE(r.hypotheses.front().T_target_source.isApprox(r.T_target_source, 0.0));
+    EXPECT_EQ(r.hypotheses.front().fitness, r.fitness);
+    const auto again = obmnet::ObmNetRegistrar(o).align(source, scene);
+    EXPECT_TRUE(again.T_target_source.isApprox(r.T_target_source, 0.0)) << "seeded RANSAC";
   }
 }
 
