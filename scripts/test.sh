@@ -39,7 +39,7 @@ if [[ "${1:-}" == "--sanitize" ]]; then
   export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:suppressions=$ROOT/.ci/ubsan.supp:${UBSAN_OPTIONS:-}"
   cd "$BUILD"
   # The shipped models' accuracy on real sweeps and frames (ModelAccuracy, KittiObmNet: seconds
-  # each in the Release run, 1.5–8 min each here, half an hour of the two cores together) run in
+  # each in the Release run, 1.5–9.5 min each here, 41 of the 86 test-minutes) run in
   # the Release build only; the code they drive (the network, its RANSAC and yaw search, the
   # matchers) is under the sanitizers through the Registrar / ObmNetMatchers tests and the apps
   # end to end. `ctest -R "ModelAccuracy|KittiObmNet"` here runs them under the sanitizers too.
