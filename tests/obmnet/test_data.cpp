@@ -15,6 +15,7 @@
 #include "obm/obmnet/object_set.hpp"
 #include "obm/obmnet/registrar.hpp"
 #include "obm/obmnet/trainer.hpp"
+#include "untrained_model.hpp"
 
 using namespace obm;
 using namespace obm::obmnet;
@@ -62,12 +63,7 @@ obmnet::ObmNet saveSmallModel(const std::string& path, std::uint64_t seed, int n
 std::string saveRegistrarModel(const std::string& dir, obmnet::ObmNetConfig c, std::uint64_t seed) {
   c.emb_dims = 16;
   c.n_samples = 8;
-  torch::manual_seed(seed);
-  obmnet::ObmNet net(c);
-  ModelMeta meta;
-  meta.num_points = 96;
-  saveModel(dir + "/m.pt", net, meta);
-  return dir + "/m.pt";
+  return test::saveUntrainedModel(dir + "/m.pt", c, seed, 96);
 }
 
 }  // namespace

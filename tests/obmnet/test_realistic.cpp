@@ -10,8 +10,8 @@
 #include <random>
 
 #include "obm/config/config_node.hpp"
-#include "obm/core/errors.hpp"
 #include "obm/core/cloud_ops.hpp"
+#include "obm/core/errors.hpp"
 #include "obm/core/mesh.hpp"
 #include "obm/obmnet/data.hpp"
 #include "obm/obmnet/losses.hpp"
@@ -22,6 +22,7 @@
 #include "obm/obmnet/trainer.hpp"
 #include "small_training.hpp"
 #include "test_data.hpp"
+#include "untrained_model.hpp"
 
 using namespace obm;
 using namespace obm::obmnet;
@@ -287,7 +288,6 @@ namespace {
 /// An untrained planar network of the registrar tests (what they check is the search, not
 /// the weights), saved in `dir`.
 std::string savePlanarModel(const std::string& dir, bool shared_centroid) {
-  const std::string path = dir + "/planar.pt";
   obmnet::ObmNetConfig c;
   c.shared_centroid = shared_centroid;
   c.emb_dims = 16;
@@ -295,13 +295,7 @@ std::string savePlanarModel(const std::string& dir, bool shared_centroid) {
   c.n_iters = 1;
   c.planar = true;
   c.voxel_keypoints = true;
-  torch::manual_seed(1);
-  obmnet::ObmNet net(c);
-  ModelMeta meta;
-  meta.num_points = 256;
-  meta.description = "unit test";
-  saveModel(path, net, meta);
-  return path;
+  return test::saveUntrainedModel(dir + "/planar.pt", c, 1, 256);
 }
 
 /// An L-shaped corner of two walls on a road, as a car's sensor sees it.
@@ -318,6 +312,14 @@ PointCloud cornerScene() {
   return scene;
 }
 
+/// `scene` as a sensor sees it from the pose T_scene_sensor = (yaw about z, t): p_sensor = T⁻¹·p.
+PointCloud seenFrom(const PointCloud& scene, double yaw, const Eigen::Vector3d& t) {
+  Isometry3d T_scene_sensor = Isometry3d::Identity();
+  T_scene_sensor.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T_scene_sensor.translation() = t;
+  return scene.transformed(T_scene_sensor.inverse(), "source");
+}
+
 }  // namespace
 
 TEST(Registrar, YawHypothesesAreSearchedInOneBatchAndTheBestFitIsKept) {
@@ -329,10 +331,7 @@ TEST(Registrar, YawHypothesesAreSearchedInOneBatchAndTheBestFitIsKept) {
     SCOPED_TRACE(shared ? "shared centroid" : "separate centroids");
     const std::string path = savePlanarModel(test::scratchDir("registrar_yaw"), shared);
     const PointCloud scene = cornerScene();
-    Isometry3d T_true = Isometry3d::Identity();
-    T_true.linear() = Eigen::AngleAxisd(kPi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    T_true.translation() = Eigen::Vector3d(3.0, -2.0, 0.0);
-    const PointCloud source = scene.transformed(T_true.inverse(), "source");
+    const PointCloud source = seenFrom(scene, kPi, Eigen::Vector3d(3.0, -2.0, 0.0));
     obmnet::ObmNetRegistrar::Options o;
     o.model_path = path;
     o.threads = 1;
@@ -357,10 +356,7 @@ TEST(Registrar, WithRansacEveryHypothesisCarriesItsConsensusRankedAsAsked) {
   // RANSAC is seeded: the same call gives the same pose. Without RANSAC no consensus is reported.
   const std::string path = savePlanarModel(test::scratchDir("registrar_ransac"), false);
   const PointCloud scene = cornerScene();
-  Isometry3d T_true = Isometry3d::Identity();
-  T_true.linear() = Eigen::AngleAxisd(0.6 * kPi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  T_true.translation() = Eigen::Vector3d(2.0, 1.0, 0.0);
-  const PointCloud source = scene.transformed(T_true.inverse(), "source");
+  const PointCloud source = seenFrom(scene, 0.6 * kPi, Eigen::Vector3d(2.0, 1.0, 0.0));
   obmnet::ObmNetRegistrar::Options o;
   o.model_path = path;
   o.threads = 1;
