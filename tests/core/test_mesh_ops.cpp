@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <random>
+#include <set>
+#include <tuple>
 
 #include "obm/core/cloud_ops.hpp"
 #include "obm/core/errors.hpp"
@@ -51,6 +53,43 @@ TEST(Mesh, SurfaceSamplesAreOnTheSurfaceAndUniform) {
   flat.vertices = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}};
   flat.faces = {{0, 1, 2}};
   EXPECT_THROW(sampleSurface(flat, 10, rng), ContractError);
+}
+
+// voxelIds groups points by voxel, ids in order of first occurrence, with the packed-key table
+// near the origin and the general one for coordinates beyond ±2^20 voxels; both must group
+// exactly as the definition says (floor(p / voxel) per axis, negative coordinates included).
+TEST(CloudOps, VoxelIdsGroupByFloorInFirstSeenOrderNearAndFar) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<float> U(-3.f, 3.f);
+  for (const float offset : {0.f, 5.0e4f}) {  // 5e4 m / 0.01 m = 5e6 voxels: the general path
+    std::vector<Vector3f> pts;
+    for (int i = 0; i < 5000; ++i) pts.emplace_back(U(rng) + offset, U(rng), U(rng) - offset);
+    pts.push_back(pts[17]);  // a duplicate joins its voxel
+    const double voxel = offset > 0.f ? 0.01 : 0.25;
+    std::vector<std::uint32_t> ids;
+    const std::size_t m = voxelIds(pts, voxel, ids);
+    ASSERT_EQ(ids.size(), pts.size());
+    std::vector<Eigen::Vector3i> key_of(m);
+    std::uint32_t next = 0;
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      const Eigen::Vector3i key((pts[i].cast<double>() * (1.0 / voxel)).array().floor().cast<int>());
+      ASSERT_LE(ids[i], next) << "ids must appear in first-seen order, point " << i;
+      if (ids[i] == next) {
+        key_of[next++] = key;
+      } else {
+        EXPECT_EQ(key_of[ids[i]], key) << "point " << i << " grouped into another voxel";
+      }
+    }
+    EXPECT_EQ(next, m);
+    EXPECT_EQ(ids.back(), ids[17]);
+    // Every voxel distinct: no two ids share a key.
+    std::set<std::tuple<int, int, int>> keys;
+    for (const auto& k : key_of) keys.emplace(k.x(), k.y(), k.z());
+    EXPECT_EQ(keys.size(), m);
+  }
+  std::vector<std::uint32_t> ids;
+  EXPECT_EQ(voxelIds({}, 0.1, ids), 0u);
+  EXPECT_THROW(voxelIds({Vector3f::Zero()}, 0.0, ids), ContractError);
 }
 
 TEST(CloudOps, NormalizeVoxelSubsetCrop) {

@@ -367,6 +367,90 @@ TEST(FrontendParts, AJumpTheStampsHideIsFoundAmongThePathsOfLostSweeps) {
   EXPECT_LT(rotationAngle(err.linear()) * kRadToDeg, 0.2) << on.reason;
 }
 
+// keyframe_normals: each keyframe's normals and colour gradients are estimated once, in its own
+// sensor frame, and turned into the world frame when the map is merged. Two keyframes see the box
+// from sensors turned by 30° and 120° about z (and tilted), so a normal or gradient left in the
+// sensor frame would point the wrong way; the map must match the one whose normals are estimated
+// on the merged cloud.
+TEST(FrontendParts, KeyframeNormalsAreEstimatedOnceAndTurnedIntoTheWorldFrame) {
+  const auto turned = [](double x, double yaw_deg, double tilt_deg) {
+    Isometry3d T = shifted(x);
+    T.linear() = (Eigen::AngleAxisd(yaw_deg * kDegToRad, Eigen::Vector3d::UnitZ()) *
+                  Eigen::AngleAxisd(tilt_deg * kDegToRad, Eigen::Vector3d::UnitX()))
+                     .toRotationMatrix();
+    return T;
+  };
+  // Grey level rising along world x (one grey step per 2 m): the floor's gradient is along +x.
+  const auto coloured = [](Keyframe kf) {
+    const Eigen::Isometry3f T = kf.T_world_sensor.cast<float>();
+    for (const Vector3f& q : kf.cloud.points) {
+      const float x = (T * q).x();
+      const auto g = static_cast<std::uint8_t>(std::clamp(128.f + 6.f * x, 0.f, 255.f));
+      kf.cloud.colors.push_back(Color3u8(g, g, g));
+    }
+    return kf;
+  };
+  std::vector<Keyframe> kfs;
+  for (const auto& [id, T] : {std::pair<std::size_t, Isometry3d>{0, turned(0.0, 30.0, 5.0)},
+                              {1, turned(2.0, 120.0, -4.0)},
+                              {2, turned(4.0, -60.0, 2.0)}})
+    kfs.push_back(coloured(keyframe(id, T, 2.0 * double(id), T)));
+
+  registration::PreparedTarget::Options opt;
+  opt.color_gradients = true;
+  opt.threads = 1;
+  LocalMapParams lp;
+  lp.async = false;
+  lp.radius = 1000.0;
+  lp.voxel = 0.5;
+  lp.keyframe_normals = true;
+  LocalMap per_keyframe(lp, opt);
+  lp.keyframe_normals = false;
+  LocalMap merged(lp, opt);
+  StageTimes times;
+  std::vector<Keyframe> so_far;
+  for (const Keyframe& kf : kfs) {
+    so_far.push_back(kf);
+    per_keyframe.afterKeyframe(so_far, 10 * kf.id, false, times);
+    merged.afterKeyframe(so_far, 10 * kf.id, false, times);
+  }
+  // Three maps built, each keyframe's surface estimated once (not 1 + 2 + 3 times).
+  EXPECT_EQ(per_keyframe.surfacesEstimated(), 3u);
+  EXPECT_EQ(merged.surfacesEstimated(), 0u);
+
+  const registration::PreparedTarget& a = per_keyframe.target();
+  const registration::PreparedTarget& b = merged.target();
+  ASSERT_EQ(a.size(), b.size());  // the same voxel grid over the same points
+  ASSERT_TRUE(a.hasColorGradients());
+  std::size_t floor_points = 0, agree = 0, both_valid = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const Vector3f& p = a.cloud().points[i];
+    EXPECT_NEAR((p - b.cloud().points[i]).norm(), 0.0, 1e-4) << i;
+    if (!a.normalValid()[i] || !b.normalValid()[i]) continue;
+    // Away from the box's edges (where one view's neighbourhood and the merged views' straddle
+    // different faces) the two maps' normals agree.
+    int planes_near = 0;  // the floor z = -1.5 and the walls x = -12, x = 14, y = 17
+    for (const float d : {p.z() + 1.5f, p.x() + 12.f, p.x() - 14.f, p.y() - 17.f})
+      planes_near += std::abs(d) < 1.1f ? 1 : 0;
+    const bool edge = planes_near > 1 || std::abs(p.x()) > 19.5f || std::abs(p.y()) > 19.5f ||
+                      p.z() > 3.9f;
+    if (edge) continue;
+    ++both_valid;
+    if (std::abs(a.normals()[i].dot(b.normals()[i])) > std::cos(5.0 * kDegToRad)) ++agree;
+    if (std::abs(p.z() + 1.5f) < 0.01f && std::abs(p.x()) < 8.f && std::abs(p.y()) < 8.f) {
+      ++floor_points;
+      EXPECT_GT(std::abs(a.normals()[i].z()), 0.99f) << "floor normal at " << p.transpose();
+      // 6 grey levels per metre along x: 6/255 per metre.
+      const Vector3f g = a.colorGradients()[i];
+      EXPECT_NEAR(g.x(), 6.f / 255.f, 0.005f) << "floor gradient at " << p.transpose();
+      EXPECT_NEAR(g.y(), 0.f, 0.005f) << "floor gradient at " << p.transpose();
+    }
+  }
+  EXPECT_GT(floor_points, 100u);
+  EXPECT_GT(both_valid, a.size() / 3);
+  EXPECT_GE(double(agree), 0.99 * double(both_valid));
+}
+
 TEST(FrontendParts, AnAsynchronousLocalMapIsInstalledAFixedNumberOfFramesLater) {
   LocalMapParams lp;
   lp.async = true;

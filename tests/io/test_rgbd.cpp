@@ -471,6 +471,41 @@ TEST(RgbdSequence, RealOpen3dFolderWithTrajectory) {
   EXPECT_GT(bad, 3.0 * good);
 }
 
+TEST(ColorImage, FuzzFindingTruncatedJpegClaimingAHugeImageFailsAtOnce) {
+  // Found by tests/fuzz (scripts/fuzz.sh, a libFuzzer timeout): 219 bytes whose frame header
+  // claims 4135 x 59139 pixels and whose data ends at once. libjpeg pads a stream that ends early
+  // with grey rows, so the reader allocated 730 MB and decoded 59 139 empty rows (15 s under ASan).
+  // A stream that ends before its image is now a FormatError naming the file, raised at the first
+  // missing row.
+  const std::string path = std::string(OBM_SOURCE_DIR) +
+                           "/tests/fuzz/regressions/jpeg/header_claims_huge_image_truncated.jpg";
+  ASSERT_TRUE(fs::exists(path));
+  try {
+    readColorJpeg(path);
+    ADD_FAILURE() << "a truncated JPEG was read";
+  } catch (const FormatError& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("corrupt JPEG"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ColorImage, RealJpegCutShortIsAFormatErrorNotAGreyImage) {
+  OBM_REQUIRE_SHARED_DATA("rgbd_open3d");
+  const std::string frame = o3dDir() + "/color/00000.jpg";
+  std::ifstream in(frame, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_GT(bytes.size(), 10000u);
+  EXPECT_EQ(readColorJpeg(frame).width, 640);  // whole: read
+  const std::string cut = test::scratchDir("jpeg_cut") + "/half.jpg";
+  { std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() / 2); }
+  try {
+    readColorJpeg(cut);
+    ADD_FAILURE() << "the first half of a JPEG was read as an image";
+  } catch (const FormatError& e) {
+    EXPECT_NE(std::string(e.what()).find(cut), std::string::npos) << e.what();
+  }
+}
+
 TEST(ColorImage, JpegErrorsNameTheFile) {
   const std::string dir = test::scratchDir("jpeg_errors");
   const std::string not_jpeg = dir + "/not_a.jpg", truncated = dir + "/truncated.jpg";

@@ -3,7 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <cstdint>
+#include <limits>
 #include <unordered_map>
+
+#include "obm/core/errors.hpp"
 
 namespace obm {
 
@@ -23,6 +27,59 @@ struct VoxelKeyEq {
 };
 }  // namespace
 
+std::size_t voxelIds(const std::vector<Vector3f>& points, double voxel,
+                     std::vector<std::uint32_t>& ids) {
+  OBM_ASSERT(voxel > 0.0, "voxelIds: voxel must be > 0");
+  OBM_ASSERT(points.size() < std::numeric_limits<std::uint32_t>::max(),
+             "voxelIds: too many points");
+  const std::size_t n = points.size();
+  ids.resize(n);
+  const double inv = 1.0 / voxel;
+  std::vector<Eigen::Vector3i> keys(n);
+  // Packed 21-bit coordinates (±2^20 voxels: ±31 km at 3 cm) index an open-addressing table,
+  // several times faster than std::unordered_map on the mapping front-end's clouds (the local map
+  // build merges ~10^5 points per keyframe); anything outside that range takes the general path.
+  constexpr int kHalf = 1 << 20;
+  bool packable = true;
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto& p = points[i];
+    keys[i] = Eigen::Vector3i(static_cast<int>(std::floor(p.x() * inv)),
+                              static_cast<int>(std::floor(p.y() * inv)),
+                              static_cast<int>(std::floor(p.z() * inv)));
+    packable = packable && (keys[i].array() >= -kHalf).all() && (keys[i].array() < kHalf).all();
+  }
+  std::uint32_t count = 0;
+  if (!packable) {
+    std::unordered_map<Eigen::Vector3i, std::uint32_t, VoxelKeyHash, VoxelKeyEq> index;
+    index.reserve(n / 4 + 1);
+    for (std::size_t i = 0; i < n; ++i) {
+      auto [it, inserted] = index.try_emplace(keys[i], count);
+      if (inserted) ++count;
+      ids[i] = it->second;
+    }
+    return count;
+  }
+  std::size_t capacity = 16;
+  while (capacity < 2 * n) capacity <<= 1;
+  const int shift = 64 - static_cast<int>(std::log2(static_cast<double>(capacity)));
+  constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+  std::vector<std::uint64_t> slot_key(capacity, kEmpty);
+  std::vector<std::uint32_t> slot_id(capacity);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint64_t key = (std::uint64_t(keys[i].x() + kHalf) << 42) |
+                              (std::uint64_t(keys[i].y() + kHalf) << 21) |
+                              std::uint64_t(keys[i].z() + kHalf);
+    std::size_t s = static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> shift);
+    while (slot_key[s] != kEmpty && slot_key[s] != key) s = (s + 1) & (capacity - 1);
+    if (slot_key[s] == kEmpty) {
+      slot_key[s] = key;
+      slot_id[s] = count++;
+    }
+    ids[i] = slot_id[s];
+  }
+  return count;
+}
+
 PointCloud voxelDownsample(const PointCloud& cloud, double voxel) {
   if (voxel <= 0.0) return cloud;
   struct Acc {
@@ -31,19 +88,11 @@ PointCloud voxelDownsample(const PointCloud& cloud, double voxel) {
     Eigen::Vector3d csum = Eigen::Vector3d::Zero();
     std::size_t n = 0;
   };
-  std::unordered_map<Eigen::Vector3i, std::size_t, VoxelKeyHash, VoxelKeyEq> index;
-  std::vector<Acc> acc;
-  index.reserve(cloud.size() / 4 + 1);
-  const double inv = 1.0 / voxel;
+  std::vector<std::uint32_t> ids;
+  std::vector<Acc> acc(voxelIds(cloud.points, voxel, ids));
   for (std::size_t i = 0; i < cloud.size(); ++i) {
-    const auto& p = cloud.points[i];
-    const Eigen::Vector3i key(static_cast<int>(std::floor(p.x() * inv)),
-                              static_cast<int>(std::floor(p.y() * inv)),
-                              static_cast<int>(std::floor(p.z() * inv)));
-    auto [it, inserted] = index.try_emplace(key, acc.size());
-    if (inserted) acc.emplace_back();
-    Acc& a = acc[it->second];
-    a.sum += p.cast<double>();
+    Acc& a = acc[ids[i]];
+    a.sum += cloud.points[i].cast<double>();
     if (cloud.hasIntensity()) a.isum += cloud.intensity[i];
     if (cloud.hasColors()) a.csum += cloud.colors[i].cast<double>();
     ++a.n;

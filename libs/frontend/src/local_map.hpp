@@ -8,7 +8,9 @@
 /// do not depend on timing. Private to libs/frontend.
 #include <cstddef>
 #include <future>
+#include <map>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "obm/core/timer.hpp"
@@ -53,15 +55,28 @@ class LocalMap {
   void rebuild(const std::vector<Keyframe>& keyframes, std::size_t frame_index, bool allow_async,
                StageTimes& times);
 
+  /// Keyframe surfaces estimated so far (LocalMapParams::keyframe_normals: once per keyframe).
+  std::size_t surfacesEstimated() const { return surfaces_estimated_; }
+
   /// Installs the asynchronously built map when its frame has come (waits for it if needed,
   /// stage "local_map_wait"; the worker's build time goes to "local_map_build").
   void installPending(std::size_t frame_index, StageTimes& times);
 
+  /// A keyframe's points (sensor frame, finite) and their surface, estimated once when
+  /// LocalMapParams::keyframe_normals.
+  struct KeyframeSurface {
+    PointCloud cloud;
+    registration::SurfaceAttributes surface;
+  };
+
  private:
+  using SurfacePtr = std::shared_ptr<const KeyframeSurface>;
   struct BuiltMap {
     std::unique_ptr<registration::PreparedTarget> target;
     double ms = 0.0;  // build time in the worker
+    std::vector<std::pair<std::size_t, SurfacePtr>> new_surfaces;  // keyframe index -> surface
   };
+  void install(BuiltMap&& m);  // the map, and the surfaces it estimated
 
   LocalMapParams params_;
   registration::PreparedTarget::Options target_options_;
@@ -69,6 +84,8 @@ class LocalMap {
   std::future<BuiltMap> pending_;       // the next local map, being built
   std::size_t pending_from_frame_ = 0;  // frame index from which it replaces the current one
   std::size_t first_ = 0;               // oldest keyframe the map may use (after a restart)
+  std::map<std::size_t, SurfacePtr> surfaces_;  // keyframe index -> its surface (keyframe_normals)
+  std::size_t surfaces_estimated_ = 0;
 };
 
 }  // namespace obm::frontend

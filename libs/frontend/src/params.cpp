@@ -90,13 +90,14 @@ void LocalMapParams::validate() const {
 }
 
 LocalMapParams LocalMapParams::load(const ConfigNode& node) {
-  node.checkKeys({"keyframes", "voxel", "radius", "async", "rebuild_every"});
+  node.checkKeys({"keyframes", "voxel", "radius", "async", "rebuild_every", "keyframe_normals"});
   LocalMapParams p;
   node.get("keyframes", p.keyframes);
   node.get("voxel", p.voxel);
   node.get("radius", p.radius);
   node.get("async", p.async);
   node.get("rebuild_every", p.rebuild_every);
+  node.get("keyframe_normals", p.keyframe_normals);
   validateAt(node, [&] { p.validate(); });
   return p;
 }

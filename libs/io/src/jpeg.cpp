@@ -1,6 +1,7 @@
 // JPEG colour images (libjpeg-turbo): the colour frames of the Redwood / Open3D RGB-D layout and of
 // many hand-held RGB-D recordings. Declared in obm/io/rgbd.hpp next to the PNG readers.
 // jpeglib.h needs size_t and FILE declared before it.
+#include <algorithm>
 #include <csetjmp>
 #include <cstddef>
 #include <cstdio>
@@ -9,6 +10,7 @@
 #include <string>
 
 #include <jpeglib.h>
+#include <jerror.h>  // JWRN_JPEG_EOF
 
 #include "obm/core/errors.hpp"
 #include "obm/io/rgbd.hpp"
@@ -32,6 +34,14 @@ void jpegErrorExit(j_common_ptr cinfo) {
 }
 
 void jpegOutputMessage(j_common_ptr) {}  // warnings (corrupt-data recoveries) are not printed
+
+/// Warnings are recoveries from corrupt data and are let pass, except the end of the data before
+/// the image's end: libjpeg would then decode the missing rows as grey, which for a truncated or
+/// corrupt header claiming 10^8 pixels is seconds of work and hundreds of MB for a few bytes of
+/// file (a fuzzing finding). A truncated frame is an error.
+void jpegEmitMessage(j_common_ptr cinfo, int level) {
+  if (level < 0 && cinfo->err->msg_code == JWRN_JPEG_EOF) jpegErrorExit(cinfo);
+}
 
 /// The largest image accepted, so that a corrupt header cannot ask for gigabytes.
 constexpr std::size_t kMaxPixels = std::size_t{1} << 28;
@@ -67,8 +77,12 @@ int jpegDecode(jpeg_decompress_struct* cinfo, JpegErrorSink* sink, std::FILE* fp
     return 2;
   }
   const std::size_t rowbytes = std::size_t(out->width) * 3;
-  out->rgb.resize(rowbytes * out->height);
   while (cinfo->output_scanline < cinfo->output_height) {
+    // The buffer grows with the rows decoded, so a stream that ends early fails before the
+    // whole image the header claims is allocated.
+    const std::size_t end = std::size_t(cinfo->output_scanline + 1) * rowbytes;
+    if (out->rgb.size() < end)
+      out->rgb.resize(std::min(std::size_t(out->height) * rowbytes, std::max(end, 2 * out->rgb.size())));
     JSAMPROW row = out->rgb.data() + std::size_t(cinfo->output_scanline) * rowbytes;
     jpeg_read_scanlines(cinfo, &row, 1);
   }
@@ -96,6 +110,7 @@ ColorImage readColorJpeg(const std::string& path) {
   cinfo.err = jpeg_std_error(&sink.mgr);
   sink.mgr.error_exit = jpegErrorExit;
   sink.mgr.output_message = jpegOutputMessage;
+  sink.mgr.emit_message = jpegEmitMessage;
   jpeg_create_decompress(&cinfo);
   JpegPixels px;
   const int rc = jpegDecode(&cinfo, &sink, fp.get(), &px);

@@ -145,6 +145,33 @@ PreparedTarget::PreparedTarget(const PointCloud& target, const Options& options)
   });
 }
 
+PreparedTarget::PreparedTarget(PointCloud target, SurfaceAttributes surface,
+                               const Options& options)
+    : impl_(std::make_unique<Impl>()) {
+  const std::size_t n = target.size();
+  OBM_ASSERT(options.voxel == 0.0, "PreparedTarget: a given surface needs voxel 0");
+  OBM_ASSERT(surface.normals.size() == n && surface.valid.size() == n,
+             "PreparedTarget: normals and their flags must be sized like the cloud");
+  OBM_ASSERT(surface.gradients.empty() || (surface.gradients.size() == n && target.hasColors()),
+             "PreparedTarget: colour gradients need a coloured cloud and one per point");
+  auto& d = *impl_;
+  d.options = options;
+  d.cloud = std::move(target);
+  for (const Vector3f& q : d.cloud.points)
+    OBM_ASSERT(q.allFinite(), "PreparedTarget: a given surface needs finite points");
+  d.normals = std::move(surface.normals);
+  d.valid = std::move(surface.valid);
+  d.adaptor.pts = &d.cloud.points;
+  if (n == 0) return;
+  d.tree = std::make_unique<KdTree>(3, d.adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+  d.tree->buildIndex();
+  if (!surface.gradients.empty()) {
+    d.gradients = std::move(surface.gradients);
+    d.intensity.resize(n);
+    for (std::size_t i = 0; i < n; ++i) d.intensity[i] = colorIntensity(d.cloud.colors[i]);
+  }
+}
+
 PreparedTarget::~PreparedTarget() = default;
 PreparedTarget::PreparedTarget(PreparedTarget&&) noexcept = default;
 PreparedTarget& PreparedTarget::operator=(PreparedTarget&&) noexcept = default;
@@ -163,6 +190,9 @@ const std::vector<Vector3f>& PreparedTarget::normals() const {
 }
 const std::vector<std::uint8_t>& PreparedTarget::normalValid() const {
   return impl_->valid;
+}
+SurfaceAttributes PreparedTarget::surface() const {
+  return {impl_->normals, impl_->valid, impl_->gradients};
 }
 bool PreparedTarget::hasColorGradients() const {
   return !impl_->gradients.empty();

@@ -1,7 +1,9 @@
 #pragma once
 /// \file cloud_ops.hpp
 /// Small point-cloud operations shared by the front-end, the data generators and the tools.
+#include <cstdint>
 #include <random>
+#include <vector>
 
 #include "obm/core/point_cloud.hpp"
 
@@ -12,6 +14,12 @@ namespace obm {
 /// occurrence of each voxel in the input, so the result is deterministic. `voxel` <= 0 returns a
 /// copy.
 PointCloud voxelDownsample(const PointCloud& cloud, double voxel);
+
+/// The voxel of edge `voxel` [m] (> 0) of every point, as ids 0, 1, 2, ... in the order of each
+/// voxel's first point (`ids[i]` for `points[i]`); returns the number of occupied voxels. The
+/// grouping voxelDownsample averages over, for callers that merge attributes of their own.
+std::size_t voxelIds(const std::vector<Vector3f>& points, double voxel,
+                     std::vector<std::uint32_t>& ids);
 
 /// `n` distinct random points (partial Fisher–Yates); all of them, shuffled, if the cloud has
 /// fewer. `indices_out` (optional) receives the chosen input indices.

@@ -77,6 +77,12 @@ struct LocalMapParams {
   /// Rebuild the map at every n-th keyframe only (>= 1): building the KD-tree and normals is the
   /// front-end's largest cost, and a map reaching 100 m stays good for a few keyframes.
   std::size_t rebuild_every = 1;
+  /// Estimate each keyframe's normals (and colour gradients) once, on its own cloud, and merge
+  /// them into the local map (per voxel the mean of the trusted ones) instead of estimating them
+  /// on every merged map: the build then only merges and builds the KD-tree. The k-NN search of
+  /// the estimate is most of a build, and indoors a keyframe comes every few frames. Off: the
+  /// normals of a merged map see several views at once, which sparse LiDAR rings need.
+  bool keyframe_normals = false;
 
   static LocalMapParams load(const ConfigNode& node);
   void validate() const;

@@ -37,6 +37,15 @@ inline float colorIntensity(const Color3u8& c) {
   return (0.299f * float(c[0]) + 0.587f * float(c[1]) + 0.114f * float(c[2])) / 255.f;
 }
 
+/// A cloud's surface as PreparedTarget estimates it, per point: the normal, whether it is trusted
+/// and the colour gradient. For callers that estimate it once per piece of a map and merge the
+/// pieces (the front-end's local map with LocalMapParams::keyframe_normals).
+struct SurfaceAttributes {
+  std::vector<Vector3f> normals;     ///< unit normals (see PreparedTarget::normals)
+  std::vector<std::uint8_t> valid;   ///< see PreparedTarget::normalValid
+  std::vector<Vector3f> gradients;   ///< empty, or see PreparedTarget::colorGradients
+};
+
 class PreparedTarget {
  public:
   using Options = PreparedTargetOptions;
@@ -44,6 +53,10 @@ class PreparedTarget {
   /// Removes non-finite points, down-samples, builds the KD-tree and the normals. Throws
   /// ContractError for options out of range (normal_neighbors < 3, threads < 1, voxel < 0).
   explicit PreparedTarget(const PointCloud& target, const Options& options = Options());
+  /// Takes the surface as given instead of estimating it: builds the KD-tree only (and the
+  /// intensities, when `surface` has gradients and the cloud colours). `target` must be finite and
+  /// every attribute sized like it (ContractError otherwise); Options::voxel must be 0.
+  PreparedTarget(PointCloud target, SurfaceAttributes surface, const Options& options);
   ~PreparedTarget();
   PreparedTarget(PreparedTarget&&) noexcept;
   PreparedTarget& operator=(PreparedTarget&&) noexcept;
@@ -59,6 +72,8 @@ class PreparedTarget {
   const std::vector<Vector3f>& normals() const;
   /// 1 where the neighbourhood was planar enough for a point-to-plane residual, else 0.
   const std::vector<std::uint8_t>& normalValid() const;
+  /// normals(), normalValid() and colorGradients() together (copies).
+  SurfaceAttributes surface() const;
   const Options& options() const;
 
   /// True when colour gradients were estimated (Options::color_gradients and a coloured cloud).
