@@ -35,16 +35,19 @@ void jpegErrorExit(j_common_ptr cinfo) {
 
 void jpegOutputMessage(j_common_ptr) {}  // warnings (corrupt-data recoveries) are not printed
 
-/// Warnings are recoveries from corrupt data and are let pass, except the end of the data before
-/// the image's end: libjpeg would then decode the missing rows as grey, which for a truncated or
-/// corrupt header claiming 10^8 pixels is seconds of work and hundreds of MB for a few bytes of
-/// file (a fuzzing finding). A truncated frame is an error.
+/// Warnings are recoveries from corrupt data and are let pass, except the end of the image data
+/// before the image's end (the file ends, or a marker comes where pixels should): libjpeg would
+/// then decode the missing rows as grey, which for a corrupt header claiming 10^8 pixels is
+/// seconds of work and hundreds of MB for a few hundred bytes of file (two fuzzing findings), and
+/// for a real frame is an image whose lower part is invented. Such a frame is an error.
 void jpegEmitMessage(j_common_ptr cinfo, int level) {
-  if (level < 0 && cinfo->err->msg_code == JWRN_JPEG_EOF) jpegErrorExit(cinfo);
+  if (level < 0 && (cinfo->err->msg_code == JWRN_JPEG_EOF || cinfo->err->msg_code == JWRN_HIT_MARKER))
+    jpegErrorExit(cinfo);
 }
 
-/// The largest image accepted, so that a corrupt header cannot ask for gigabytes.
-constexpr std::size_t kMaxPixels = std::size_t{1} << 28;
+/// The largest image accepted (8192 x 8192; colour frames of depth cameras are at most a few
+/// megapixels), so that a corrupt header cannot ask for gigabytes.
+constexpr std::size_t kMaxPixels = std::size_t{1} << 26;
 
 struct JpegPixels {
   unsigned width = 0, height = 0;
