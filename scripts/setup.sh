@@ -13,6 +13,7 @@ PACKAGES=(
   # libraries
   libeigen3-dev libmrpt-dev libtorch-dev libceres-dev liboctomap-dev libgtest-dev libgmock-dev
   libembree-dev libhdf5-dev libnanoflann-dev libyaml-cpp-dev nlohmann-json3-dev libpng-dev libjpeg-dev libcli11-dev
+  zlib1g-dev  # model files: their deflated entries are checked before LibTorch reads them
   libgloo-dev  # headers of LibTorch's c10d Gloo process group (data-parallel obm-train)
   libtcmalloc-minimal4  # allocator of the applications (LibTorch's large temporaries)
   # BLAS behind LibTorch: Debian's default alternative is ATLAS; OpenBLAS threaded with OpenMP shares

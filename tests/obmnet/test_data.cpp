@@ -482,6 +482,26 @@ TEST(ModelFile, FuzzFindingDamagedTorchScriptIsACrcErrorBeforeLibTorchParsesIt) 
   }
 }
 
+TEST(ModelFile, FuzzFindingDamagedDeflatedTorchScriptIsAnErrorBeforeLibTorchParsesIt) {
+  // Found by a one-hour run of tests/fuzz (scripts/fuzz.sh 3600 model), after the CRC-32 check
+  // above: one byte changed inside a TorchScript source that the archive stores *deflated*
+  // (code/__torch__/___torch_mangle_15.py), which the check then passed by position only. LibTorch
+  // inflated it and its parser crashed (SEGV in ScriptTypeParser::parseClassConstant). Deflated
+  // entries are now inflated and checked against their size and CRC-32.
+  const std::string found = std::string(OBM_SOURCE_DIR) +
+                            "/tests/fuzz/regressions/model/deflated_torchscript_damaged.pt";
+  ASSERT_TRUE(std::filesystem::exists(found));
+  try {
+    loadModel(found);
+    FAIL() << "loaded";
+  } catch (const FormatError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(found), std::string::npos) << what;
+    EXPECT_NE(what.find("___torch_mangle_15.py"), std::string::npos) << what;  // the entry
+    EXPECT_NE(what.find("inflate"), std::string::npos) << what;
+  }
+}
+
 TEST(ModelFile, EveryCorruptionLoadsOrIsAFormatErrorNamingTheFile) {
   // A deterministic sweep over damaged copies of a real model file (the inputs a fuzzer of model
   // files would start from): a byte flipped at 160 offsets spread over the file, and the file cut
