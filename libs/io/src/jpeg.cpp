@@ -10,7 +10,7 @@
 #include <string>
 
 #include <jpeglib.h>
-#include <jerror.h>  // JWRN_JPEG_EOF
+#include <jerror.h>  // JWRN_JPEG_EOF, JWRN_HIT_MARKER
 
 #include "obm/core/errors.hpp"
 #include "obm/io/rgbd.hpp"
