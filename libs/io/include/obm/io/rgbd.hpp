@@ -80,7 +80,8 @@ ColorImage readColorPng(const std::string& path);
 
 /// Reads a baseline or progressive JPEG as 8-bit RGB (grey converted; CMYK refused). Throws
 /// IoError when the file cannot be opened and FormatError naming the file when it is not a JPEG,
-/// is corrupt or is larger than 2^28 pixels.
+/// is corrupt, ends before its image does (libjpeg would pad the rest with grey) or is larger
+/// than 8192 x 8192 pixels.
 ColorImage readColorJpeg(const std::string& path);
 
 /// readColorPng or readColorJpeg by the file's extension (.png, .jpg, .jpeg, any case); IoError
