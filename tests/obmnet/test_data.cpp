@@ -463,23 +463,27 @@ TEST(Registrar, ModelTrainedWithoutTheRoadCutsItAtInference) {
   for (const auto& p : r.target_sampled.points) EXPECT_GT(p.z(), -1.4f);
 }
 
+/// A fuzzing finding of tests/fuzz/regressions/model/: loading it is a FormatError whose message
+/// names the file and holds every one of `parts`.
+static void expectModelFindingRejected(const std::string& name, const std::vector<std::string>& parts) {
+  const std::string found = std::string(OBM_SOURCE_DIR) + "/tests/fuzz/regressions/model/" + name;
+  ASSERT_TRUE(std::filesystem::exists(found));
+  try {
+    loadModel(found);
+    FAIL() << name << " loaded";
+  } catch (const FormatError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(found), std::string::npos) << what;
+    for (const std::string& part : parts) EXPECT_NE(what.find(part), std::string::npos) << what;
+  }
+}
+
 TEST(ModelFile, FuzzFindingDamagedTorchScriptIsACrcErrorBeforeLibTorchParsesIt) {
   // Found by tests/fuzz (scripts/fuzz.sh model): a model whose TorchScript section has a name
   // changed ("weight" written over a type). LibTorch 1.13's parser crashed on it under the
   // sanitizers (SEGV in ScriptTypeParser::parseClassConstant). The archive check rejects the
-  // entry by its CRC-32 before LibTorch sees it.
-  const std::string found =
-      std::string(OBM_SOURCE_DIR) + "/tests/fuzz/regressions/model/torchscript_parser_segv.pt";
-  ASSERT_TRUE(std::filesystem::exists(found));
-  try {
-    loadModel(found);
-    FAIL() << "loaded";
-  } catch (const FormatError& e) {
-    const std::string what = e.what();
-    EXPECT_NE(what.find(found), std::string::npos) << what;
-    EXPECT_NE(what.find("code/"), std::string::npos) << what;  // names the entry
-    EXPECT_NE(what.find("CRC-32"), std::string::npos) << what;
-  }
+  // entry (named: "code/...") by its CRC-32 before LibTorch sees it.
+  expectModelFindingRejected("torchscript_parser_segv.pt", {"code/", "CRC-32"});
 }
 
 TEST(ModelFile, FuzzFindingDamagedDeflatedTorchScriptIsAnErrorBeforeLibTorchParsesIt) {
@@ -488,18 +492,7 @@ TEST(ModelFile, FuzzFindingDamagedDeflatedTorchScriptIsAnErrorBeforeLibTorchPars
   // (code/__torch__/___torch_mangle_15.py), which the check then passed by position only. LibTorch
   // inflated it and its parser crashed (SEGV in ScriptTypeParser::parseClassConstant). Deflated
   // entries are now inflated and checked against their size and CRC-32.
-  const std::string found = std::string(OBM_SOURCE_DIR) +
-                            "/tests/fuzz/regressions/model/deflated_torchscript_damaged.pt";
-  ASSERT_TRUE(std::filesystem::exists(found));
-  try {
-    loadModel(found);
-    FAIL() << "loaded";
-  } catch (const FormatError& e) {
-    const std::string what = e.what();
-    EXPECT_NE(what.find(found), std::string::npos) << what;
-    EXPECT_NE(what.find("___torch_mangle_15.py"), std::string::npos) << what;  // the entry
-    EXPECT_NE(what.find("inflate"), std::string::npos) << what;
-  }
+  expectModelFindingRejected("deflated_torchscript_damaged.pt", {"___torch_mangle_15.py", "inflate"});
 }
 
 TEST(ModelFile, EveryCorruptionLoadsOrIsAFormatErrorNamingTheFile) {
