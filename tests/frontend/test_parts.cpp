@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -321,6 +322,82 @@ TEST(FrontendParts, AfterAGapTheGapPathsFindTheCarWhereTheTurningGuessLostIt) {
   // A gap shorter than min_steps leaves the step out.
   const auto [short_gap, short_step] = recover(41.0);
   EXPECT_NE(short_step, "gap_paths");
+}
+
+TEST(FrontendParts, AfterAGapTheGapPathsFindTheCarOnTheMapOfAnEarlierPass) {
+  // The same four seconds lost in a turn, but the local map (the keyframes before the gap) does
+  // not reach where the car is now: it holds another place 500 m away. An earlier pass mapped
+  // the place, in a keyframe older than the local map (its cloud in its own sensor frame, 3 m
+  // and 40° from the true pose). The paths find the car against that keyframe only when
+  // recovery_gap_map_radius lets them look there, and the recovery hands that map on for the
+  // frames after.
+  TrackingParams tp;
+  const Tracker tracker(tp);
+  const registration::IcpMatcher icp;
+  Isometry3d last_motion = Isometry3d::Identity();
+  last_motion.rotate(Eigen::AngleAxisd(3.0 * kDegToRad, Eigen::Vector3d::UnitZ()));
+  last_motion.translation() = Eigen::Vector3d(0.25, 0.0, 0.0);
+  const Isometry3d T_last = shifted(-6.0);
+  const double steps = 40.0;
+  const Isometry3d T_guess = T_last * expSE3(steps * logSE3(last_motion));
+  Isometry3d T_true = T_last * expSE3(5.0 * logSE3(last_motion));
+  T_true.translation() += T_true.linear() * Eigen::Vector3d(0.3 * 35.0, 0.0, 0.0);
+  const PointCloud corner = cornerCloud();  // the place, world frame
+  PointCloud sweep;
+  const Eigen::Isometry3f T_sensor_world = T_true.inverse().cast<float>();
+  for (const Vector3f& q : corner.points) sweep.push_back(T_sensor_world * q);
+  Keyframe earlier;  // the earlier pass
+  earlier.id = 0;
+  earlier.T_world_sensor = T_true;
+  earlier.T_world_sensor.rotate(Eigen::AngleAxisd(40.0 * kDegToRad, Eigen::Vector3d::UnitZ()));
+  earlier.T_world_sensor.translation() += Eigen::Vector3d(2.0, -2.2, 0.0);
+  const Eigen::Isometry3f T_earlier_world = earlier.T_world_sensor.inverse().cast<float>();
+  for (const Vector3f& q : corner.points) earlier.cloud.push_back(T_earlier_world * q);
+  Keyframe before_gap;  // the last keyframe before the gap, elsewhere
+  before_gap.id = 7;
+  PointCloud elsewhere;
+  for (const Vector3f& q : corner.points) elsewhere.push_back(q + Vector3f(500.0f, 0.0f, 0.0f));
+  before_gap.cloud = elsewhere;
+  const std::vector<Keyframe> keyframes{earlier, before_gap};
+  const registration::PreparedTarget local_map(elsewhere,
+                                               tracker.icp().icpParams().targetOptions());
+  const auto recover = [&](double radius) {
+    tp.recovery_gap_speed_min = 1.0;
+    tp.recovery_gap_speed_max = 1.4;
+    tp.recovery_gap_min_steps = 5.0;
+    tp.recovery_gap_map_radius = radius;
+    Recovery recovery(tp, tracker.wideGate(), icp);
+    RecoveryInput in{sweep,
+                     T_guess,
+                     local_map,
+                     before_gap,
+                     2,
+                     last_motion,
+                     0.9,
+                     std::max(0.0, rotationAngle((T_last.inverse() * T_guess).linear()) -
+                                       rotationAngle(last_motion.linear()))};
+    in.T_last = T_last;
+    in.steps = steps;
+    in.all_keyframes = &keyframes;
+    in.old_keyframes_end = 1;  // the earlier pass only: the other one is the local map's
+    FrameResult fr;
+    StageTimes times;
+    recovery.startSweep();
+    recovery.recover(in, {RejectionKind::InlierRatio, "tracking said no"}, fr, times);
+    const bool handed_on = recovery.takeRecoveryMap() != nullptr;
+    return std::make_tuple(fr, recovery.takenBy(), handed_on);
+  };
+  const auto [off, off_step, off_map] = recover(0.0);
+  EXPECT_NE(off.status, TrackingStatus::Recovered) << off.reason;
+  EXPECT_FALSE(off_map);
+  const auto [on, on_step, on_map] = recover(20.0);
+  ASSERT_EQ(on.status, TrackingStatus::Recovered) << on.reason;
+  EXPECT_EQ(on_step, "gap_paths") << on.reason;
+  EXPECT_TRUE(on_map);
+  EXPECT_NE(on.reason.find("earlier submaps"), std::string::npos) << on.reason;
+  const Isometry3d err = T_true.inverse() * on.match.T_target_source;
+  EXPECT_LT(err.translation().norm(), 0.05) << on.reason;
+  EXPECT_LT(rotationAngle(err.linear()) * kRadToDeg, 0.2) << on.reason;
 }
 
 TEST(FrontendParts, AJumpTheStampsHideIsFoundAmongThePathsOfLostSweeps) {

@@ -239,11 +239,18 @@ struct Frontend::Impl {
     in.T_last = T_world_current;
     in.steps = motion.steps(fr.timestamp, p.tracking.use_timestamps);
     in.last_bridged = !frames.empty() && frames.back().status == TrackingStatus::Bridged;
+    in.all_keyframes = &keyframes;
+    in.old_keyframes_end = keyframes.size() > p.local_map.keyframes
+                               ? keyframes.size() - p.local_map.keyframes
+                               : 0;
+    in.map_voxel = p.local_map.voxel;
     recovery.recover(in, rejection, fr, times);
     // After a gap the view overlaps the local map less than the frames before it did: the
     // frames after it are judged against the recovered frame's fit, not the old one.
-    if (fr.status == TrackingStatus::Recovered && recovery.takenBy() == "gap_paths")
+    if (fr.status == TrackingStatus::Recovered && recovery.takenBy() == "gap_paths") {
       tracker.restartRecentInliers(fr.match.inlier_ratio);
+      if (auto earlier = recovery.takeRecoveryMap()) local_map.adopt(std::move(earlier));
+    }
   }
 
   /// The scan matcher's registration of the sweep against the last keyframe (world frame), from

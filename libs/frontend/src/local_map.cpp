@@ -87,6 +87,11 @@ void mergeOnGrid(PointCloud& cloud, registration::SurfaceAttributes& s, double v
 
 }  // namespace
 
+void LocalMap::adopt(std::unique_ptr<registration::PreparedTarget> target) {
+  if (pending_.valid()) install(pending_.get());  // keeps the surfaces it estimated
+  current_ = std::move(target);
+}
+
 void LocalMap::install(BuiltMap&& m) {
   current_ = std::move(m.target);
   surfaces_estimated_ += m.new_surfaces.size();

@@ -38,6 +38,10 @@ class LocalMap {
   /// The map in use (exists() must be true).
   const registration::PreparedTarget& target() const { return *current_; }
 
+  /// Tracks against `target` (world frame) until the next rebuild: the earlier map a gap
+  /// recovery registered the frame against. A build still pending is dropped.
+  void adopt(std::unique_ptr<registration::PreparedTarget> target);
+
   /// From now on the map holds keyframes from `first_keyframe` on only (a restart).
   void restartAt(std::size_t first_keyframe) { first_ = first_keyframe; }
 

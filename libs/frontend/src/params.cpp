@@ -154,6 +154,8 @@ void TrackingParams::validate() const {
           "recovery_gap_start_spacing", "must be > 0 [m]");
   require(recovery_gap_relative_inlier_ratio >= 0.0 && recovery_gap_relative_inlier_ratio <= 1.0,
           "recovery_gap_relative_inlier_ratio", "must be in [0, 1]");
+  require(finite(recovery_gap_map_radius) && recovery_gap_map_radius >= 0.0,
+          "recovery_gap_map_radius", "must be >= 0 [m] (0 = the local map only)");
   require(recovery_jump_max_steps >= 0, "recovery_jump_max_steps", "must be >= 0 (0 = never)");
   require(recovery_gap_min_support >= 1, "recovery_gap_min_support", "must be >= 1");
   require(recovery_gap_rival_ratio > 0.0 && recovery_gap_rival_ratio <= 1.0,
@@ -218,7 +220,7 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
                   "recovery_gap_min_support",
                   "recovery_gap_rival_ratio",
                   "recovery_gap_agreement_translation",
-                  "recovery_gap_agreement_rotation_deg",
+                  "recovery_gap_agreement_rotation_deg", "recovery_gap_map_radius",
                   "recovery_jump_max_steps",
                   "max_bridge_frames",
                   "information_scale",
@@ -269,6 +271,7 @@ TrackingParams TrackingParams::load(const ConfigNode& node) {
   node.get("recovery_gap_rival_ratio", p.recovery_gap_rival_ratio);
   node.get("recovery_gap_agreement_translation", p.recovery_gap_agreement_translation);
   node.getDegAsRad("recovery_gap_agreement_rotation_deg", p.recovery_gap_agreement_rotation);
+  node.get("recovery_gap_map_radius", p.recovery_gap_map_radius);
   node.get("recovery_jump_max_steps", p.recovery_jump_max_steps);
   node.get("max_bridge_frames", p.max_bridge_frames);
   node.get("information_scale", p.information_scale);

@@ -4,10 +4,13 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <map>
+#include <memory>
 #include <utility>
 #include <vector>
 
 #include "matcher_stage.hpp"
+#include "obm/core/cloud_ops.hpp"
 #include "obm/core/log.hpp"
 #include "obm/frontend/stages.hpp"
 #include "tracker.hpp"
@@ -83,6 +86,7 @@ void Recovery::recover(const RecoveryInput& in, const Rejection& rejection, Fram
   a.confirmed = a.recovered;
   a.confirmed.min_inlier_ratio = tp.recovery_confirmed_relative_inlier_ratio * in.inlier_reference;
   taken_by_.clear();
+  recovery_map_.reset();
   for (const Step& step : kSteps)
     if ((this->*step.run)(a)) {
       taken_by_ = step.name;
@@ -238,34 +242,86 @@ bool Recovery::gapPaths(Attempt& a) {
         }
   }
   std::vector<registration::MatchResult> ok;
-  for (const Start& st : starts) {
-    const Isometry3d& T_start = st.T;
+  // What each acceptable registration was made against: the local map, or the earlier map at a
+  // keyframe (the key of `submaps` below).
+  constexpr std::size_t kLocalMap = std::numeric_limits<std::size_t>::max();
+  std::vector<std::size_t> ok_on;
+  std::map<std::size_t, std::unique_ptr<registration::PreparedTarget>> submaps;
+  // The wide-gate ICP of the sweep from a path's end against `target`; an acceptable
+  // registration that came to rest joins `ok`.
+  const auto tryStart = [&](const Start& st, const registration::PreparedTarget& target,
+                            std::size_t on) {
+    registration::MatchResult r;
     {
-      registration::MatchResult r;
-      {
-        TimedStage s(a.times, Stage::Icp);
-        r = wide_gate_->match(in.source, in.local_map, T_start);
-        // Tens of metres from the start the iteration limit may stop ICP on its way: a
-        // registration that already fits is continued once from where it stopped.
-        if (r.status == registration::MatchStatus::NotConverged &&
-            !checkAcceptance(r, in.T_guess, bounds).rejected())
-          r = wide_gate_->match(in.source, in.local_map, r.T_target_source);
+      TimedStage s(a.times, Stage::Icp);
+      r = wide_gate_->match(in.source, target, st.T);
+      // Tens of metres from the start the iteration limit may stop ICP on its way: a
+      // registration that already fits is continued once from where it stopped.
+      if (r.status == registration::MatchStatus::NotConverged &&
+          !checkAcceptance(r, in.T_guess, bounds).rejected())
+        r = wide_gate_->match(in.source, target, r.T_target_source);
+    }
+    const Rejection why = checkAcceptance(r, in.T_guess, bounds);
+    OBM_LOG_DEBUG(kLog, "frame " << a.fr.index << ": " << (gap ? "gap" : "jump") << " path of "
+                                 << st.n << " steps turning " << st.turn * kRadToDeg
+                                 << " deg, speed x" << st.speed << ", against "
+                                 << (on == kLocalMap ? std::string("the local map")
+                                                     : "the map at keyframe " + std::to_string(on))
+                                 << ": inlier ratio " << r.inlier_ratio << ", quality " << r.quality
+                                 << ", " << toString(r.status)
+                                 << (why.rejected() ? " (" + why.detail + ")" : ""));
+    // Only registrations that came to rest compete: one stopped by the iteration limit is still
+    // sliding (along a street, towards the basin another start reached).
+    if (!why.rejected() && r.status == registration::MatchStatus::Ok) {
+      ok.push_back(r);
+      ok_on.push_back(on);
+    }
+  };
+  for (const Start& st : starts) tryStart(st, in.local_map, kLocalMap);
+  // The map made earlier around each path's end (gaps only: a jump is a few sweeps long).
+  int map_targets = 0;
+  if (gap && tp.recovery_gap_map_radius > 0.0 && in.all_keyframes != nullptr &&
+      in.old_keyframes_end > 0) {
+    const std::vector<Keyframe>& kfs = *in.all_keyframes;
+    const std::size_t end = std::min(in.old_keyframes_end, kfs.size());
+    const double r2 = tp.recovery_gap_map_radius * tp.recovery_gap_map_radius;
+    for (const Start& st : starts) {
+      std::size_t nearest = end;
+      double best_d2 = r2;
+      for (std::size_t k = 0; k < end; ++k) {
+        if (kfs[k].dropped) continue;
+        const double d2 = (kfs[k].T_world_sensor.translation() - st.T.translation()).squaredNorm();
+        if (d2 <= best_d2) {
+          best_d2 = d2;
+          nearest = k;
+        }
       }
-      const Rejection why = checkAcceptance(r, in.T_guess, bounds);
-      OBM_LOG_DEBUG(
-          kLog, "frame " << a.fr.index << ": " << (gap ? "gap" : "jump") << " path of " << st.n
-                         << " steps turning " << st.turn * kRadToDeg << " deg, speed x" << st.speed
-                         << ": inlier ratio " << r.inlier_ratio << ", quality " << r.quality << ", "
-                         << toString(r.status) << (why.rejected() ? " (" + why.detail + ")" : ""));
-      // Only registrations that came to rest compete: one stopped by the iteration limit is still
-      // sliding (along a street, towards the basin another start reached).
-      if (!why.rejected() && r.status == registration::MatchStatus::Ok) ok.push_back(r);
+      if (nearest == end) continue;
+      std::unique_ptr<registration::PreparedTarget>& target = submaps[nearest];
+      if (!target) {
+        PointCloud merged;
+        const Eigen::Vector3d centre = kfs[nearest].T_world_sensor.translation();
+        for (std::size_t k = 0; k < end; ++k) {
+          if (kfs[k].dropped ||
+              (kfs[k].T_world_sensor.translation() - centre).squaredNorm() > r2)
+            continue;
+          const Eigen::Isometry3f T = kfs[k].T_world_sensor.cast<float>();
+          for (const Vector3f& q : kfs[k].cloud.points) merged.points.push_back(T * q);
+        }
+        if (in.map_voxel > 0.0) merged = voxelDownsample(merged, in.map_voxel);
+        TimedStage s(a.times, Stage::LocalMap);
+        target = std::make_unique<registration::PreparedTarget>(wide_gate_->prepare(merged));
+        ++map_targets;
+      }
+      tryStart(st, *target, nearest);
     }
   }
   const std::string what = gap ? "gap paths" : "jump paths";
+  const std::string against =
+      map_targets > 0 ? " (local map and " + std::to_string(map_targets) + " earlier submaps)" : "";
   if (ok.empty()) {
     a.reason += "; " + what + ": no acceptable registration from " + std::to_string(starts.size()) +
-                " starts";
+                " starts" + against;
     return false;
   }
   const auto best = std::max_element(ok.begin(), ok.end(), [](const auto& x, const auto& y) {
@@ -288,9 +344,14 @@ bool Recovery::gapPaths(Attempt& a) {
                 d.translation().norm(), rotationAngle(d.linear()) * kRadToDeg, best->inlier_ratio,
                 support, ok.size(), rival);
   if (support >= tp.recovery_gap_min_support &&
-      rival < tp.recovery_gap_rival_ratio * best->inlier_ratio)
-    return a.take(*best, "the " + what + " (" + found + ")");
-  a.reason += "; " + what + " ambiguous: " + found;
+      rival < tp.recovery_gap_rival_ratio * best->inlier_ratio) {
+    // Taken against the earlier map: the local map (the keyframes before the gap) may not reach
+    // where the car is now, so the next frames track against that map (takeRecoveryMap()).
+    const std::size_t on = ok_on[static_cast<std::size_t>(best - ok.begin())];
+    if (on != kLocalMap) recovery_map_ = std::move(submaps[on]);
+    return a.take(*best, "the " + what + against + " (" + found + ")");
+  }
+  a.reason += "; " + what + " ambiguous" + against + ": " + found;
   return false;
 }
 

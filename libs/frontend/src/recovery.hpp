@@ -64,6 +64,12 @@ struct RecoveryInput {
   double steps = 1.0;
   /// The frame before was bridged: its pose is a guess, and no path starts from it.
   bool last_bridged = false;
+  /// Every keyframe so far (world poses); those before `old_keyframes_end` are not in the local
+  /// map. The gap_paths step registers against them too (TrackingParams::recovery_gap_map_radius),
+  /// merged at `map_voxel`. Null: the local map only.
+  const std::vector<Keyframe>* all_keyframes = nullptr;
+  std::size_t old_keyframes_end = 0;
+  double map_voxel = 0.0;
 };
 
 class Recovery {
@@ -90,6 +96,12 @@ class Recovery {
 
   /// The name of the step that took the last recovered frame (empty when it was bridged).
   const std::string& takenBy() const { return taken_by_; }
+
+  /// The earlier map (world frame) the gap_paths step registered the last recovered frame
+  /// against, once; null when it was the local map (TrackingParams::recovery_gap_map_radius).
+  std::unique_ptr<registration::PreparedTarget> takeRecoveryMap() {
+    return std::move(recovery_map_);
+  }
 
   /// A new keyframe: the cached last-keyframe target is stale.
   void keyframeAdded() { last_keyframe_target_.reset(); }
@@ -122,6 +134,7 @@ class Recovery {
   std::optional<JumpCandidate> candidate_;  // from this sweep, if any
   std::optional<JumpCandidate> previous_;   // from the sweep before, if any
   std::optional<JumpCandidate> confirmed_;  // set by recover(), taken by the caller
+  std::unique_ptr<registration::PreparedTarget> recovery_map_;  // see takeRecoveryMap()
   std::string taken_by_;                    // the step that took the last frame
 };
 

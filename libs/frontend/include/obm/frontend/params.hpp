@@ -191,6 +191,12 @@ struct TrackingParams {
   double recovery_gap_rival_ratio = 0.9;                                            ///< (0, 1]
   double recovery_gap_agreement_translation = 0.3;                                  ///< [m]
   double recovery_gap_agreement_rotation = 1.0 * kDegToRad;  ///< [rad] (YAML `_deg`)
+  /// [m] The gap paths also register against the map made earlier around each path's end: the
+  /// keyframes older than the local map within this radius of the keyframe nearest to the end
+  /// (merged at the local map's voxel). After a long gap in a turn the car is often tens of
+  /// metres into a street the local map barely sees, but which an earlier pass mapped; the
+  /// registrations against both compete as above. 0 = the local map only.
+  double recovery_gap_map_radius = 0.0;
   /// Jump paths: the same step when the time stamps hide the loss (sweeps lost, stamps regular):
   /// the guess is one step and the number of lost sweeps is unknown, so the paths are those of
   /// 1 + k lost steps at the last speed, k up to recovery_jump_max_steps (spaced by
