@@ -39,7 +39,8 @@ class LocalMap {
   const registration::PreparedTarget& target() const { return *current_; }
 
   /// Tracks against `target` (world frame) until the next rebuild: the earlier map a gap
-  /// recovery registered the frame against. A build still pending is dropped.
+  /// recovery registered the frame against. A build still pending is finished first (the keyframe
+  /// surfaces it estimated are kept), then replaced.
   void adopt(std::unique_ptr<registration::PreparedTarget> target);
 
   /// From now on the map holds keyframes from `first_keyframe` on only (a restart).
