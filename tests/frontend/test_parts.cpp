@@ -93,6 +93,46 @@ PointCloud cornerCloud() {
   return corner;
 }
 
+/// Four seconds of sweeps lost in a turn (the gap-path tests): the last motion is 0.25 m and 3° a
+/// frame, the guess drives it 40 times (120° round a 4.8 m circle), but the car left the turn
+/// after 15° and drove on straight, a little faster: 7 m from the guess and 105° turned from it.
+/// The place is cornerCloud() in the world frame; `sweep` sees it from the true pose.
+struct GapInTurn {
+  Isometry3d last_motion = Isometry3d::Identity();
+  Isometry3d T_last = shifted(-6.0);
+  double steps = 40.0;
+  Isometry3d T_guess, T_true;
+  PointCloud corner = cornerCloud();
+  PointCloud sweep;
+
+  GapInTurn() {
+    last_motion.rotate(Eigen::AngleAxisd(3.0 * kDegToRad, Eigen::Vector3d::UnitZ()));
+    last_motion.translation() = Eigen::Vector3d(0.25, 0.0, 0.0);
+    T_guess = T_last * expSE3(steps * logSE3(last_motion));
+    T_true = T_last * expSE3(5.0 * logSE3(last_motion));
+    T_true.translation() += T_true.linear() * Eigen::Vector3d(0.3 * 35.0, 0.0, 0.0);
+    const Eigen::Isometry3f T_sensor_world = T_true.inverse().cast<float>();
+    for (const Vector3f& q : corner.points) sweep.push_back(T_sensor_world * q);
+  }
+
+  /// The recovery's input for this gap against `local_map` (the frame before: T_last).
+  RecoveryInput input(const registration::PreparedTarget& local_map, const Keyframe& last,
+                      std::size_t keyframes) const {
+    RecoveryInput in{sweep,
+                     T_guess,
+                     local_map,
+                     last,
+                     keyframes,
+                     last_motion,
+                     0.9,
+                     std::max(0.0, rotationAngle((T_last.inverse() * T_guess).linear()) -
+                                       rotationAngle(last_motion.linear()))};
+    in.T_last = T_last;
+    in.steps = steps;
+    return in;
+  }
+};
+
 // ---------------------------------------------------------------------------------------------
 TEST(FrontendParts, EdgeInformationHasTheFloorAndBridgeEdgesTheirSigmas) {
   // An over-confident match is limited by the floor: Ω → diag(1/σ_t², 1/σ_r²).
@@ -266,45 +306,23 @@ TEST(FrontendParts, AfterAGapOrWithAFitLikeTrackingTheRecoveryMayCorrectALargeTu
 }
 
 TEST(FrontendParts, AfterAGapTheGapPathsFindTheCarWhereTheTurningGuessLostIt) {
-  // Four seconds of sweeps lost in a turn: the last motion is 0.25 m and 3° a frame, the guess
-  // drives it 40 times (120° round a 4.8 m circle), but the car left the turn after 15° and drove
-  // on straight, a little faster: 7 m from the guess and 105° turned from it.
+  // GapInTurn, the place in the local map.
   TrackingParams tp;
   const Tracker tracker(tp);
   const registration::IcpMatcher icp;
-  Isometry3d last_motion = Isometry3d::Identity();
-  last_motion.rotate(Eigen::AngleAxisd(3.0 * kDegToRad, Eigen::Vector3d::UnitZ()));
-  last_motion.translation() = Eigen::Vector3d(0.25, 0.0, 0.0);
-  const Isometry3d T_last = shifted(-6.0);
-  const double steps = 40.0;
-  const Isometry3d T_guess = T_last * expSE3(steps * logSE3(last_motion));
-  Isometry3d T_true = T_last * expSE3(5.0 * logSE3(last_motion));
-  T_true.translation() += T_true.linear() * Eigen::Vector3d(0.3 * 35.0, 0.0, 0.0);
-  const PointCloud corner = cornerCloud();
+  const GapInTurn g;
+  const Isometry3d& T_true = g.T_true;
   Keyframe kf;
   kf.id = 3;
-  kf.cloud = corner;  // the local map, in the world frame
-  PointCloud sweep;
-  const Eigen::Isometry3f T_sensor_world = T_true.inverse().cast<float>();
-  for (const Vector3f& q : corner.points) sweep.push_back(T_sensor_world * q);
+  kf.cloud = g.corner;  // the local map, in the world frame
   const registration::PreparedTarget local_map(kf.cloud, tracker.icp().icpParams().targetOptions());
-  ASSERT_GT((T_guess.inverse() * T_true).translation().norm(), 6.0);
+  ASSERT_GT((g.T_guess.inverse() * T_true).translation().norm(), 6.0);
   const auto recover = [&](double min_steps) {
     tp.recovery_gap_speed_min = 1.0;  // 1.0, 1.2, 1.4 (10 m of path, 2 m apart): faster
     tp.recovery_gap_speed_max = 1.4;
     tp.recovery_gap_min_steps = min_steps;
     Recovery recovery(tp, tracker.wideGate(), icp);
-    RecoveryInput in{sweep,
-                     T_guess,
-                     local_map,
-                     kf,
-                     4,
-                     last_motion,
-                     0.9,
-                     std::max(0.0, rotationAngle((T_last.inverse() * T_guess).linear()) -
-                                       rotationAngle(last_motion.linear()))};
-    in.T_last = T_last;
-    in.steps = steps;
+    const RecoveryInput in = g.input(local_map, kf, 4);
     FrameResult fr;
     StageTimes times;
     recovery.startSweep();
@@ -325,41 +343,29 @@ TEST(FrontendParts, AfterAGapTheGapPathsFindTheCarWhereTheTurningGuessLostIt) {
 }
 
 TEST(FrontendParts, AfterAGapTheGapPathsFindTheCarOnTheMapOfAnEarlierPass) {
-  // The same four seconds lost in a turn, but the local map (the keyframes before the gap) does
-  // not reach where the car is now: it holds another place 500 m away. An earlier pass mapped
-  // the place, in a keyframe older than the local map (its cloud in its own sensor frame, 3 m
-  // and 40° from the true pose). The paths find the car against that keyframe only when
-  // recovery_gap_map_radius lets them look there, and the recovery hands that map on for the
-  // frames after.
+  // GapInTurn, but the local map (the keyframes before the gap) does not reach where the car is
+  // now: it holds another place 500 m away. An earlier pass mapped the place, in a keyframe older
+  // than the local map (its cloud in its own sensor frame, 3 m and 40° from the true pose). The
+  // paths find the car against that keyframe only when recovery_gap_map_radius lets them look
+  // there, and the recovery hands that map on for the frames after.
   TrackingParams tp;
   const Tracker tracker(tp);
   const registration::IcpMatcher icp;
-  Isometry3d last_motion = Isometry3d::Identity();
-  last_motion.rotate(Eigen::AngleAxisd(3.0 * kDegToRad, Eigen::Vector3d::UnitZ()));
-  last_motion.translation() = Eigen::Vector3d(0.25, 0.0, 0.0);
-  const Isometry3d T_last = shifted(-6.0);
-  const double steps = 40.0;
-  const Isometry3d T_guess = T_last * expSE3(steps * logSE3(last_motion));
-  Isometry3d T_true = T_last * expSE3(5.0 * logSE3(last_motion));
-  T_true.translation() += T_true.linear() * Eigen::Vector3d(0.3 * 35.0, 0.0, 0.0);
-  const PointCloud corner = cornerCloud();  // the place, world frame
-  PointCloud sweep;
-  const Eigen::Isometry3f T_sensor_world = T_true.inverse().cast<float>();
-  for (const Vector3f& q : corner.points) sweep.push_back(T_sensor_world * q);
+  const GapInTurn g;
+  const Isometry3d& T_true = g.T_true;
   Keyframe earlier;  // the earlier pass
   earlier.id = 0;
   earlier.T_world_sensor = T_true;
   earlier.T_world_sensor.rotate(Eigen::AngleAxisd(40.0 * kDegToRad, Eigen::Vector3d::UnitZ()));
   earlier.T_world_sensor.translation() += Eigen::Vector3d(2.0, -2.2, 0.0);
   const Eigen::Isometry3f T_earlier_world = earlier.T_world_sensor.inverse().cast<float>();
-  for (const Vector3f& q : corner.points) earlier.cloud.push_back(T_earlier_world * q);
+  for (const Vector3f& q : g.corner.points) earlier.cloud.push_back(T_earlier_world * q);
   Keyframe before_gap;  // the last keyframe before the gap, elsewhere
   before_gap.id = 7;
-  PointCloud elsewhere;
-  for (const Vector3f& q : corner.points) elsewhere.push_back(q + Vector3f(500.0f, 0.0f, 0.0f));
-  before_gap.cloud = elsewhere;
+  for (const Vector3f& q : g.corner.points)
+    before_gap.cloud.push_back(q + Vector3f(500.0f, 0.0f, 0.0f));
   const std::vector<Keyframe> keyframes{earlier, before_gap};
-  const registration::PreparedTarget local_map(elsewhere,
+  const registration::PreparedTarget local_map(before_gap.cloud,
                                                tracker.icp().icpParams().targetOptions());
   const auto recover = [&](double radius) {
     tp.recovery_gap_speed_min = 1.0;
@@ -367,17 +373,7 @@ TEST(FrontendParts, AfterAGapTheGapPathsFindTheCarOnTheMapOfAnEarlierPass) {
     tp.recovery_gap_min_steps = 5.0;
     tp.recovery_gap_map_radius = radius;
     Recovery recovery(tp, tracker.wideGate(), icp);
-    RecoveryInput in{sweep,
-                     T_guess,
-                     local_map,
-                     before_gap,
-                     2,
-                     last_motion,
-                     0.9,
-                     std::max(0.0, rotationAngle((T_last.inverse() * T_guess).linear()) -
-                                       rotationAngle(last_motion.linear()))};
-    in.T_last = T_last;
-    in.steps = steps;
+    RecoveryInput in = g.input(local_map, before_gap, 2);
     in.all_keyframes = &keyframes;
     in.old_keyframes_end = 1;  // the earlier pass only: the other one is the local map's
     FrameResult fr;
