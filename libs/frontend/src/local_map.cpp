@@ -87,6 +87,20 @@ void mergeOnGrid(PointCloud& cloud, registration::SurfaceAttributes& s, double v
 
 }  // namespace
 
+PointCloud mergeKeyframeClouds(const std::vector<Keyframe>& keyframes,
+                               const std::vector<std::size_t>& indices,
+                               const Isometry3d& T_frame_world, double voxel) {
+  PointCloud merged;
+  std::size_t total = 0;
+  for (std::size_t i : indices) total += keyframes[i].cloud.size();
+  merged.points.reserve(total);
+  for (std::size_t i : indices) {
+    const Eigen::Isometry3f T = (T_frame_world * keyframes[i].T_world_sensor).cast<float>();
+    for (const Vector3f& q : keyframes[i].cloud.points) merged.points.push_back(T * q);
+  }
+  return voxel > 0.0 ? voxelDownsample(merged, voxel) : merged;
+}
+
 void LocalMap::adopt(std::unique_ptr<registration::PreparedTarget> target) {
   if (pending_.valid()) install(pending_.get());  // keeps the surfaces it estimated
   current_ = std::move(target);

@@ -20,6 +20,13 @@
 
 namespace obm::frontend {
 
+/// The clouds of keyframes[i] for each i of `indices` (in that order), moved into the frame F of
+/// T_frame_world, merged and put on a voxel grid of edge `voxel` (0: none). Points only: the
+/// submaps of loop verification and of the gap paths' earlier maps.
+PointCloud mergeKeyframeClouds(const std::vector<Keyframe>& keyframes,
+                               const std::vector<std::size_t>& indices,
+                               const Isometry3d& T_frame_world, double voxel);
+
 class LocalMap {
  public:
   /// An asynchronously rebuilt map replaces the current one this many frames after the keyframe

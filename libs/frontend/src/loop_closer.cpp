@@ -4,10 +4,10 @@
 #include <cmath>
 
 #include "obm/frontend/stages.hpp"
-#include "obm/core/cloud_ops.hpp"
 #include "obm/core/log.hpp"
 #include "obm/core/se3.hpp"
 #include "edge_information.hpp"
+#include "local_map.hpp"
 
 namespace obm::frontend {
 
@@ -157,15 +157,14 @@ registration::MatchResult LoopCloser::verifyFrom(LoopClosure& lc,
     const long w = lp.submap_keyframes;
     const long lo = std::max<long>(0, static_cast<long>(lc.from) - w);
     const long hi = std::min<long>(static_cast<long>(lc.to) - 1, static_cast<long>(lc.from) + w);
-    PointCloud submap;
-    const Isometry3d T_cand_world = cand.T_world_sensor.inverse();
+    std::vector<std::size_t> members;
     for (long i = lo; i <= hi; ++i) {
-      const Keyframe& kf = keyframes[static_cast<std::size_t>(i)];
-      if (cur.travelled - kf.travelled < 0.5 * lp.min_travel) continue;  // not the recent past
-      const Eigen::Isometry3f T = (T_cand_world * kf.T_world_sensor).cast<float>();
-      for (const Vector3f& q : kf.cloud.points) submap.points.push_back(T * q);
+      const std::size_t j = static_cast<std::size_t>(i);
+      if (cur.travelled - keyframes[j].travelled >= 0.5 * lp.min_travel)  // not the recent past
+        members.push_back(j);
     }
-    if (submap_voxel_ > 0.0) submap = voxelDownsample(submap, submap_voxel_);
+    const PointCloud submap = mergeKeyframeClouds(keyframes, members,
+                                                  cand.T_world_sensor.inverse(), submap_voxel_);
     const registration::PreparedTarget target = matcher_.prepare(submap);
     r = matcher_.match(cur.cloud, target, T_init);
   }

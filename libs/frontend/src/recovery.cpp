@@ -9,8 +9,8 @@
 #include <utility>
 #include <vector>
 
+#include "local_map.hpp"
 #include "matcher_stage.hpp"
-#include "obm/core/cloud_ops.hpp"
 #include "obm/core/log.hpp"
 #include "obm/frontend/stages.hpp"
 #include "tracker.hpp"
@@ -299,16 +299,14 @@ bool Recovery::gapPaths(Attempt& a) {
       if (nearest == end) continue;
       std::unique_ptr<registration::PreparedTarget>& target = submaps[nearest];
       if (!target) {
-        PointCloud merged;
+        std::vector<std::size_t> near;
         const Eigen::Vector3d centre = kfs[nearest].T_world_sensor.translation();
-        for (std::size_t k = 0; k < end; ++k) {
-          if (kfs[k].dropped ||
-              (kfs[k].T_world_sensor.translation() - centre).squaredNorm() > r2)
-            continue;
-          const Eigen::Isometry3f T = kfs[k].T_world_sensor.cast<float>();
-          for (const Vector3f& q : kfs[k].cloud.points) merged.points.push_back(T * q);
-        }
-        if (in.map_voxel > 0.0) merged = voxelDownsample(merged, in.map_voxel);
+        for (std::size_t k = 0; k < end; ++k)
+          if (!kfs[k].dropped &&
+              (kfs[k].T_world_sensor.translation() - centre).squaredNorm() <= r2)
+            near.push_back(k);
+        const PointCloud merged =
+            mergeKeyframeClouds(kfs, near, Isometry3d::Identity(), in.map_voxel);
         TimedStage s(a.times, Stage::LocalMap);
         target = std::make_unique<registration::PreparedTarget>(wide_gate_->prepare(merged));
         ++map_targets;
