@@ -102,6 +102,65 @@ TEST(ObmNet, EvalIsDeterministicAndSeedMatters) {
   EXPECT_FALSE(torch::equal(o1.R, o3.R));
 }
 
+namespace {
+
+/// Batch-normalisation statistics away from their initial (0, 1), so that folding them into the
+/// convolutions is exercised (fresh modules would fold to the identity).
+void randomiseBatchNormStatistics(torch::nn::Module& m) {
+  torch::NoGradGuard ng;
+  for (auto& item : m.named_buffers()) {
+    if (item.key().find("running_mean") != std::string::npos)
+      item.value().copy_(torch::randn_like(item.value()));
+    if (item.key().find("running_var") != std::string::npos)
+      item.value().copy_(torch::rand_like(item.value()) * 2.0 + 0.1);
+  }
+  for (auto& item : m.named_parameters())
+    if (item.value().dim() == 1) item.value().copy_(torch::randn_like(item.value()) * 0.5);
+}
+
+}  // namespace
+
+TEST(DenseEdgeConv, FusedInferenceEqualsTheLayeredPath) {
+  torch::manual_seed(5);
+  for (int64_t k : {5, 32}) {
+    obmnet::DenseEdgeConv conv(k, 48);
+    randomiseBatchNormStatistics(*conv);
+    conv->eval();
+    const auto x = torch::randn({3, 3, 70});
+    const auto idx = knnIndices(x, x, k);
+    torch::NoGradGuard ng;
+    const auto fused = conv->forward(x, idx);  // eval, no gradient: the fused path
+    const auto layered = conv->forwardLayered(x, idx);
+    ASSERT_EQ(fused.sizes(), layered.sizes());
+    EXPECT_GT(layered.abs().max().item<float>(), 0.1f);
+    EXPECT_TRUE(torch::allclose(fused, layered, 1e-4, 1e-5))
+        << "k = " << k << ", max difference " << (fused - layered).abs().max().item<float>();
+  }
+}
+
+TEST(ObmNet, InferenceWithoutGradientsEqualsTheTrainingGraphInEvalMode) {
+  // Eval mode without gradients takes the fused extractor; with gradients enabled it runs the
+  // layer-by-layer graph of training. The two must give the same pose.
+  torch::manual_seed(6);
+  auto cfg = smallConfig();
+  cfg.k1 = 8;
+  obmnet::ObmNet net(cfg);
+  randomiseBatchNormStatistics(*net);
+  net->eval();
+  const auto src = torch::randn({2, 3, 60});
+  const auto tgt = torch::randn({2, 3, 64});
+  const auto with_graph = net->forward(src, tgt);
+  obmnet::ObmNetOutput fused;
+  {
+    torch::NoGradGuard ng;
+    fused = net->forward(src, tgt);
+  }
+  EXPECT_TRUE(torch::allclose(fused.R, with_graph.R.detach(), 1e-3, 1e-4))
+      << "max difference " << (fused.R - with_graph.R).abs().max().item<float>();
+  EXPECT_TRUE(torch::allclose(fused.t, with_graph.t.detach(), 1e-3, 1e-4));
+  EXPECT_TRUE(torch::allclose(fused.weights, with_graph.weights.detach(), 1e-3, 1e-4));
+}
+
 TEST(ObmNet, TrainingIsDeterministicUnderAFixedSeed) {
   auto run = [] {
     torch::manual_seed(7);
@@ -203,6 +262,28 @@ TEST(Nmm, FastFormEqualsLiteralGather) {
   // M^r is row-stochastic.
   const auto Mr = nmm(M_feat, si, ti, {});
   EXPECT_TRUE(torch::allclose(Mr.sum(2), torch::ones({B, N}, torch::kFloat64), 1e-12, 1e-12));
+}
+
+TEST(Nmm, InferenceKernelsEqualTheLiteralGather) {
+  // Float without autograd takes the raw-loop kernels (column sums within rows of M′, then row
+  // sums); they must agree with the literal gather of the definition.
+  torch::manual_seed(10);
+  const int64_t B = 2, N = 37, M = 29;
+  const auto M_feat = torch::rand({B, N, M}, torch::kFloat64) * 3.0;
+  const auto ps = torch::randn({B, 3, N}, torch::kFloat64);
+  const auto pt = torch::randn({B, 3, M}, torch::kFloat64);
+  const auto si = knnIndices(ps, ps, 6);
+  const auto ti = knnIndices(pt, pt, 4);
+  const NmmParams p{0.7, 1e-6};
+  const auto literal = nmmEnhancedCostLiteral(M_feat, si, ti, p).to(torch::kFloat32);
+  torch::NoGradGuard ng;
+  const auto fast = nmmEnhancedCost(M_feat.to(torch::kFloat32), si, ti, p);
+  EXPECT_TRUE(torch::allclose(fast, literal, 1e-4, 1e-6))
+      << "max difference " << (fast - literal).abs().max().item<float>();
+  // One batch element alone gives the same as inside the batch.
+  const auto one = nmmEnhancedCost(M_feat.to(torch::kFloat32).narrow(0, 1, 1), si.narrow(0, 1, 1),
+                                   ti.narrow(0, 1, 1), p);
+  EXPECT_TRUE(torch::allclose(one, fast.narrow(0, 1, 1), 1e-5, 1e-7));
 }
 
 TEST(Knn, SelfFirstAndSorted) {

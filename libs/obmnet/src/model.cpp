@@ -34,9 +34,21 @@ namespace {
 /// Φ' of the matching map: the features fused with the overlap representations (step 4).
 torch::Tensor fuse(torch::nn::Conv1d& fusion, const torch::Tensor& phi,
                    const torch::Tensor& summary_self, const torch::Tensor& summary_other) {
-  const int64_t B = phi.size(0), D = phi.size(1), N = phi.size(2);
-  const auto ctx = torch::cat({summary_self, summary_other}, 1).unsqueeze(2).expand({B, 2 * D, N});
-  return phi + fusion->forward(torch::cat({phi, ctx}, 1));
+  // conv([Φ; T_self; T_other]) split by the weight's columns, W_Φ·Φ + W_T·[T_self; T_other]: the
+  // summaries are one vector per cloud, so they need not be broadcast over the N points.
+  const int64_t D = phi.size(1);
+  OBM_ASSERT(!fusion->bias.defined() && fusion->weight.size(1) == 3 * D,
+             "ObmNet: the overlap fusion must be a bias-free Conv1d over 3D channels");
+  const auto W = fusion->weight.squeeze(2);  // D × 3D
+  const auto ctx = torch::cat({summary_self, summary_other}, 1).unsqueeze(2);  // B×2D×1
+  return phi + torch::matmul(W.narrow(1, 0, D), phi) + torch::matmul(W.narrow(1, D, 2 * D), ctx);
+}
+
+/// The k nearest neighbours of each point of `pts`: the first k columns of a sorted larger
+/// neighbourhood when one is at hand (knnIndices sorts by distance, so the k2 nearest are the first
+/// k2 of the k1 nearest), else a search of their own.
+torch::Tensor nearestOf(const torch::Tensor& sorted_knn, const torch::Tensor& pts, int64_t k) {
+  return k <= sorted_knn.size(2) ? sorted_knn.narrow(2, 0, k) : obmnet::knnIndices(pts, pts, k);
 }
 
 }  // namespace
@@ -64,7 +76,7 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
 
   // Target-side quantities do not change over the iterations: computed once.
   const auto tgt_knn1 = obmnet::knnIndices(tgt, tgt, config_.k1);
-  const auto tgt_knn2 = obmnet::knnIndices(tgt, tgt, config_.k2);
+  const auto tgt_knn2 = nearestOf(tgt_knn1, tgt, config_.k2);
   const auto phi_q = extractor_->forward(tgt, tgt_knn1);
 
   torch::Tensor loss_g = torch::zeros({}, opts), loss_n = torch::zeros({}, opts),
@@ -103,7 +115,7 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
     // Step 5: neighbour map matching → M^r (log kept for L_s).
     torch::Tensor log_match;
     if (config_.use_nmm) {
-      const auto src_knn2 = obmnet::knnIndices(src_cur, src_cur, config_.k2);
+      const auto src_knn2 = nearestOf(src_knn1, src_cur, config_.k2);
       // S is evaluated without gradient unless `nmm_score_grad`: the NMM sums create k_s + k_t
       // full N×M tensors per iteration that back-propagation would have to keep (≈ 4 GB and half
       // of the step time for a batch of 16 × 1024 points on a CPU). M still receives the

@@ -1,6 +1,7 @@
 #include "obm/obmnet/modules.hpp"
 
 #include <cmath>
+#include <vector>
 
 #include "obm/core/errors.hpp"
 
@@ -87,7 +88,15 @@ DenseEdgeConvImpl::DenseEdgeConvImpl(int64_t k, int64_t emb_dims) : k_(k) {
 torch::Tensor DenseEdgeConvImpl::forward(const torch::Tensor& x, const torch::Tensor& idx_in) {
   OBM_ASSERT(x.dim() == 3 && x.size(1) == 3, "DenseEdgeConv expects points B×3×N");
   const auto idx = idx_in.defined() ? idx_in : knnIndices(x, x, k_);
-  OBM_ASSERT(idx.size(2) == k_, "DenseEdgeConv: neighbour graph has the wrong k");
+  OBM_ASSERT(idx.dim() == 3 && idx.size(0) == x.size(0) && idx.size(1) == x.size(2) &&
+                 idx.size(2) == k_,
+             "DenseEdgeConv: neighbour graph has the wrong shape");
+  if (!is_training() && !torch::GradMode::is_enabled() && x.device().is_cpu())
+    return forwardFused(x, idx);
+  return forwardLayered(x, idx);
+}
+
+torch::Tensor DenseEdgeConvImpl::forwardLayered(const torch::Tensor& x, const torch::Tensor& idx) {
   const auto e = edgeVectors(x, idx);  // B×3×N×k, only relative coordinates (translation invariant)
   const auto h1 = layer1_->forward(e);
   const auto h2 = layer2_->forward(torch::cat({e, h1}, 1));
@@ -96,6 +105,72 @@ torch::Tensor DenseEdgeConvImpl::forward(const torch::Tensor& x, const torch::Te
   // Max over the k neighbours after each layer, then concatenation (32+32+64+128 = 256).
   const auto pooled = torch::cat({h1.amax(3), h2.amax(3), h3.amax(3), h4.amax(3)}, 1);
   return out_->forward(pooled);
+}
+
+namespace {
+
+/// A bias-free 1×1 convolution followed by batch normalisation in eval mode, as one affine map:
+/// BN(W·x) = s ⊙ (W·x − μ) + β with s = γ / √(σ² + ε), so W′ = diag(s)·W and b′ = β − s ⊙ μ.
+struct FoldedLayer {
+  torch::Tensor W;  ///< out × in
+  torch::Tensor b;  ///< out × 1
+};
+
+template <class ConvImpl, class BnImpl>
+FoldedLayer foldConvBn(const nn::Sequential& seq) {
+  const auto* conv = seq->ptr(0)->as<ConvImpl>();
+  const auto* bn = seq->ptr(1)->as<BnImpl>();
+  OBM_ASSERT(conv && bn && !conv->bias.defined() && bn->options.affine() &&
+                 bn->options.track_running_stats(),
+             "DenseEdgeConv: expected a bias-free convolution followed by batch normalisation");
+  const auto s = bn->weight / (bn->running_var + bn->options.eps()).sqrt();
+  FoldedLayer f;
+  f.W = conv->weight.reshape({conv->weight.size(0), conv->weight.size(1)}) * s.unsqueeze(1);
+  f.b = (bn->bias - bn->running_mean * s).unsqueeze(1);
+  return f;
+}
+
+}  // namespace
+
+torch::Tensor DenseEdgeConvImpl::forwardFused(const torch::Tensor& x, const torch::Tensor& idx) {
+  const int64_t B = x.size(0), N = x.size(2), k = k_, L = k * N;
+  const FoldedLayer layers[4] = {foldConvBn<nn::Conv2dImpl, nn::BatchNorm2dImpl>(layer1_),
+                                 foldConvBn<nn::Conv2dImpl, nn::BatchNorm2dImpl>(layer2_),
+                                 foldConvBn<nn::Conv2dImpl, nn::BatchNorm2dImpl>(layer3_),
+                                 foldConvBn<nn::Conv2dImpl, nn::BatchNorm2dImpl>(layer4_)};
+  const auto out = foldConvBn<nn::Conv1dImpl, nn::BatchNorm1dImpl>(out_);
+  int64_t channels = 3;
+  for (const auto& l : layers) channels += l.W.size(0);
+  const int64_t pooled_channels = channels - 3;
+  // Rows: e (3), h1, h2, h3, h4; columns: edge (j, i) at j·N + i (neighbour rank j of point i).
+  // Layer l reads rows [0, c_l) — exactly the concatenation [e, h1, …, h_{l−1}] of the layered
+  // path — and writes its output into the next rows. The buffer (259 × k·N floats: 34 MB at
+  // k = 32, N = 1024) is kept per thread between calls: above 32 MB glibc would map and unmap it
+  // on every call, and touching fresh pages costs more than the layers' arithmetic.
+  thread_local torch::Tensor storage;
+  if (!storage.defined() || storage.numel() < channels * L || storage.dtype() != x.dtype())
+    storage = torch::empty({channels * L}, x.options());
+  auto buffer = storage.narrow(0, 0, channels * L).view({channels, L});
+  std::vector<torch::Tensor> features;
+  features.reserve(static_cast<std::size_t>(B));
+  for (int64_t b = 0; b < B; ++b) {
+    const auto xb = x[b].contiguous();                       // 3×N
+    const auto nbr = idx[b].t().contiguous().reshape({-1});  // k·N, neighbour-rank major
+    auto e = buffer.narrow(0, 0, 3);
+    torch::index_select_out(e, xb, 1, nbr);  // x_j
+    e.view({3, k, N}).sub_(xb.unsqueeze(1));  // x_j − x_i
+    int64_t c = 3;
+    for (const auto& l : layers) {
+      const int64_t c_out = l.W.size(0);
+      auto h = buffer.narrow(0, c, c_out);
+      torch::addmm_out(h, l.b, l.W, buffer.narrow(0, 0, c));
+      h.relu_();
+      c += c_out;
+    }
+    const auto pooled = buffer.narrow(0, 3, pooled_channels).view({pooled_channels, k, N}).amax(1);
+    features.push_back(torch::addmm(out.b, out.W, pooled).relu_());
+  }
+  return torch::stack(features, 0);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -127,8 +202,19 @@ OverlapSamples OverlapSamplerImpl::forward(const torch::Tensor& phi_self,
   OverlapSamples out;
   // Fusion of the two clouds: global max pooling of each, concatenated (own first) and broadcast.
   const auto global = torch::cat({phi_self.amax(2), phi_other.amax(2)}, 1);  // B×2D
-  const auto per_point = torch::cat({phi_self, global.unsqueeze(2).expand({B, 2 * D, N})}, 1);
-  out.log_pi = torch::log_softmax(logits_->forward(per_point).squeeze(1), 1);  // B×N
+  // The first 1×1 convolution sees [Φ_i; global] per point. Split by columns, W·[Φ_i; g] =
+  // W_Φ·Φ_i + W_g·g: the global part is one vector per cloud instead of a broadcast 2D×N block
+  // (two thirds of the layer's multiplications and the concatenation's copy saved).
+  auto layer = logits_->begin();
+  const auto* first = layer->ptr()->as<nn::Conv1dImpl>();
+  OBM_ASSERT(first && first->weight.size(1) == 3 * D,
+             "OverlapSampler: the first logits layer must be a Conv1d over 3D channels");
+  const auto W = first->weight.squeeze(2);  // D_out × 3D
+  auto z = torch::matmul(W.narrow(1, 0, D), phi_self) +
+           torch::matmul(W.narrow(1, D, 2 * D), global.unsqueeze(2));
+  if (first->bias.defined()) z = z + first->bias.view({1, -1, 1});
+  for (++layer; layer != logits_->end(); ++layer) z = layer->forward(z);
+  out.log_pi = torch::log_softmax(z.squeeze(1), 1);  // B×N
   out.tau = torch::softplus(tau_->forward(global)).squeeze(1) + tau_min_;      // B
 
   // Gumbel(0,1) noise g = −log(−log u), drawn on the CPU from the given generator so a fixed

@@ -1,5 +1,9 @@
 #include "obm/obmnet/nmm.hpp"
 
+#include <ATen/Parallel.h>
+
+#include <vector>
+
 #include "obm/core/errors.hpp"
 
 namespace obm::obmnet {
@@ -15,17 +19,74 @@ void checkShapes(const torch::Tensor& M, const torch::Tensor& src_idx,
              "NMM: tgt_idx must be B×M×k for a B×N×M matching map");
 }
 
+/// out[i, ·] = Σ_a X[idx(i, a), ·] for a 2-D float X (R×C) and idx (N×k): each output row
+/// written once from k rows of X, the rows shared out over the intra-op threads. No autograd.
+torch::Tensor neighbourRowSumKernel(const torch::Tensor& X, const torch::Tensor& idx) {
+  const auto Xc = X.contiguous();
+  const auto I = idx.to(torch::kLong).contiguous();
+  const int64_t rows = I.size(0), k = I.size(1), C = Xc.size(1);
+  auto out = torch::empty({rows, C}, Xc.options());
+  const float* x = Xc.data_ptr<float>();
+  const int64_t* id = I.data_ptr<int64_t>();
+  float* o = out.data_ptr<float>();
+  at::parallel_for(0, rows, 16, [&](int64_t begin, int64_t end) {
+    for (int64_t i = begin; i < end; ++i) {
+      float* dst = o + i * C;
+      const float* first = x + id[i * k] * C;
+      for (int64_t c = 0; c < C; ++c) dst[c] = first[c];
+      for (int64_t a = 1; a < k; ++a) {
+        const float* row = x + id[i * k + a] * C;
+        for (int64_t c = 0; c < C; ++c) dst[c] += row[c];
+      }
+    }
+  });
+  return out;
+}
+
+/// [Σ_a X[idx(i,a), ·] | Σ_a X[idx(i,a), ·]²] for a 2-D float X (N×C) and idx (N×k), as one
+/// N × 2C table: the row sums of X and of its square in one pass over the picked rows. No autograd.
+torch::Tensor neighbourRowSumsWithSquaresKernel(const torch::Tensor& X, const torch::Tensor& idx) {
+  const auto Xc = X.contiguous();
+  const auto I = idx.to(torch::kLong).contiguous();
+  const int64_t rows = I.size(0), k = I.size(1), C = Xc.size(1);
+  auto out = torch::zeros({rows, 2 * C}, Xc.options());
+  const float* x = Xc.data_ptr<float>();
+  const int64_t* id = I.data_ptr<int64_t>();
+  float* o = out.data_ptr<float>();
+  at::parallel_for(0, rows, 16, [&](int64_t begin, int64_t end) {
+    for (int64_t i = begin; i < end; ++i) {
+      float* sum = o + i * 2 * C;
+      float* sum_sq = sum + C;
+      for (int64_t a = 0; a < k; ++a) {
+        const float* row = x + id[i * k + a] * C;
+        for (int64_t c = 0; c < C; ++c) {
+          sum[c] += row[c];
+          sum_sq[c] += row[c] * row[c];
+        }
+      }
+    }
+  });
+  return out;
+}
+
+/// Σ_a X[idx(i, a), ·] with autograd (index_select of whole rows, accumulated).
+torch::Tensor neighbourRowSum(const torch::Tensor& X, const torch::Tensor& idx) {
+  auto sum = X.index_select(0, idx.select(1, 0));
+  for (int64_t a = 1; a < idx.size(1); ++a) sum = sum + X.index_select(0, idx.select(1, a));
+  return sum;
+}
+
 /// Step 5, second and third bullets, from the neighbourhood sums A (Σ M′) and d (Σ M′²):
 /// S_ij = D_ij·A_ij / K. d_ij is clamped from below (1e-20) so 1/d_ij stays finite where the
 /// softmax underflows: such columns then dominate D's normalisation exactly as an infinitesimal d
-/// would.
+/// would. `target_dim`: the dimension of j (2 for B×N×M sums, 1 for transposed B×M×N ones).
 torch::Tensor scoreFromSums(const torch::Tensor& A, const torch::Tensor& d, int64_t pairs,
-                            const NmmParams& p) {
+                            const NmmParams& p, int64_t target_dim = 2) {
   // D only normalises the score across the row; its gradient through 1/d is unbounded where the
   // softmax underflows (d → 0), so D is treated as a constant weight (no gradient) and the
   // learning signal flows through A.
   const auto inv = 1.0 / d.detach().clamp_min(1e-20) + p.beta;
-  const auto D = inv / inv.sum(2, /*keepdim=*/true);
+  const auto D = inv / inv.sum(target_dim, /*keepdim=*/true);  // normalised over j
   // S_ij = (D_ij / K) Σ_{p∈N(p_i)} Σ_{q∈N(q_j)} M′: K = k_s·k_t neighbour pairs (a mean).
   return D * A / static_cast<double>(pairs);
 }
@@ -35,27 +96,31 @@ torch::Tensor scoreFromSums(const torch::Tensor& A, const torch::Tensor& d, int6
 torch::Tensor nmmScore(const torch::Tensor& M, const torch::Tensor& src_idx,
                        const torch::Tensor& tgt_idx, const NmmParams& params) {
   checkShapes(M, src_idx, tgt_idx);
-  const int64_t B = M.size(0), N = M.size(1), Mt = M.size(2);
+  const int64_t B = M.size(0);
   const int64_t ks = src_idx.size(2), kt = tgt_idx.size(2);
   const auto Mp = torch::softmax(-M, 2);  // M′ = row-softmax(−M)
-  const auto Mp2 = Mp * Mp;
-  // Row sums over the source neighbours: R_A[i,j] = Σ_a M′[src_idx(i,a), j] (same for M′²).
-  auto rowA = torch::zeros_like(Mp);
-  auto rowD = torch::zeros_like(Mp);
-  for (int64_t a = 0; a < ks; ++a) {
-    const auto index = src_idx.select(2, a).unsqueeze(2).expand({B, N, Mt});
-    rowA = rowA + Mp.gather(1, index);
-    rowD = rowD + Mp2.gather(1, index);
+  const bool fast = !torch::GradMode::is_enabled() && Mp.scalar_type() == torch::kFloat32 &&
+                    Mp.device().is_cpu();
+  const auto Mp2 = fast ? torch::Tensor() : Mp * Mp;
+  // The double sums as a row sum over the source neighbours followed by a column sum over the
+  // target neighbours, per batch element: O(N·M·(k_s + k_t)) instead of the literal gather with
+  // indices expanded over the whole map (nmmEnhancedCostLiteral).
+  const int64_t Mt = M.size(2);
+  std::vector<torch::Tensor> As, ds;
+  for (int64_t b = 0; b < B; ++b) {
+    // R_A[i,·] = Σ_a M′[src_idx(i,a), ·] and R_D of M′² beside it (N × 2M), transposed so that
+    // A[i,j] = Σ_b R_A[i, tgt_idx(j,b)] is again a sum of whole rows: Aᵀ[j,·] = Σ_b R_Aᵀ[tgt_idx(j,b), ·].
+    const auto R = fast ? neighbourRowSumsWithSquaresKernel(Mp[b], src_idx[b])
+                        : neighbourRowSum(torch::cat({Mp[b], Mp2[b]}, 1), src_idx[b]);
+    const auto Rt = R.t().contiguous();  // 2M × N: rows of R_Aᵀ, then of R_Dᵀ
+    const auto sum = fast ? neighbourRowSumKernel : neighbourRowSum;
+    As.push_back(sum(Rt.narrow(0, 0, Mt), tgt_idx[b]));   // Aᵀ, M × N
+    ds.push_back(sum(Rt.narrow(0, Mt, Mt), tgt_idx[b]));  // dᵀ
   }
-  // Column sums over the target neighbours: A[i,j] = Σ_b R_A[i, tgt_idx(j,b)].
-  auto A = torch::zeros_like(Mp);
-  auto d = torch::zeros_like(Mp);
-  for (int64_t b = 0; b < kt; ++b) {
-    const auto index = tgt_idx.select(2, b).unsqueeze(1).expand({B, N, Mt});
-    A = A + rowA.gather(2, index);
-    d = d + rowD.gather(2, index);
-  }
-  return scoreFromSums(A, d, ks * kt, params);
+  const auto At = B == 1 ? As[0].unsqueeze(0) : torch::stack(As, 0);  // B × M × N
+  const auto dt = B == 1 ? ds[0].unsqueeze(0) : torch::stack(ds, 0);
+  // S from the transposed sums, normalised over j (dimension 1 here), returned as B × N × M.
+  return scoreFromSums(At, dt, ks * kt, params, /*target_dim=*/1).transpose(1, 2);
 }
 
 torch::Tensor nmmEnhancedCost(const torch::Tensor& M, const torch::Tensor& src_idx,

@@ -13,6 +13,7 @@
 #include "obm/core/timer.hpp"
 #include "obm/obmnet/data.hpp"
 #include "obm/obmnet/model_io.hpp"
+#include "allocator.hpp"
 
 namespace obm::obmnet {
 
@@ -24,6 +25,7 @@ struct ObmNetRegistrar::Impl {
 };
 
 ObmNetRegistrar::ObmNetRegistrar(const Options& options) : impl_(std::make_unique<Impl>()) {
+  detail::keepFreedTensorMemory();
   impl_->opt = options;
   impl_->model = obmnet::loadModel(options.model_path, &impl_->meta);
   if (impl_->opt.num_points <= 0) impl_->opt.num_points = impl_->meta.num_points;

@@ -21,6 +21,7 @@
 #include "obm/obmnet/losses.hpp"
 #include "obm/obmnet/model.hpp"
 #include "obm/obmnet/model_io.hpp"
+#include "allocator.hpp"
 
 namespace obm::obmnet {
 
@@ -513,6 +514,7 @@ struct Trainer::Impl {
 
 Trainer::Trainer(TrainConfig config, std::vector<PointCloud> train_clouds,
                  std::vector<PointCloud> val_clouds, std::string out_dir) {
+  detail::keepFreedTensorMemory();
   auto val = objectValidationPairs(val_clouds, config.val_protocol, config.val_pairs, config.seed);
   auto sampler =
       objectPairSampler(std::move(train_clouds), config.protocol, config.curriculum_epochs,
@@ -522,9 +524,11 @@ Trainer::Trainer(TrainConfig config, std::vector<PointCloud> train_clouds,
 }
 
 Trainer::Trainer(TrainConfig config, PairSampler sampler, std::vector<RegistrationPair> val_pairs,
-                 std::string out_dir)
-    : impl_(std::make_unique<Impl>(std::move(config), std::move(sampler), std::move(val_pairs),
-                                   std::move(out_dir))) {}
+                 std::string out_dir) {
+  detail::keepFreedTensorMemory();
+  impl_ = std::make_unique<Impl>(std::move(config), std::move(sampler), std::move(val_pairs),
+                                 std::move(out_dir));
+}
 
 Trainer::~Trainer() = default;
 
