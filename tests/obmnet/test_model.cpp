@@ -118,6 +118,15 @@ void randomiseBatchNormStatistics(torch::nn::Module& m) {
     if (item.value().dim() == 1) item.value().copy_(torch::randn_like(item.value()) * 0.5);
 }
 
+/// A random feature-distance map and two random clouds for the NMM tests (double).
+struct NmmInputs {
+  torch::Tensor M_feat, ps, pt;
+  NmmInputs(int64_t B, int64_t N, int64_t M)
+      : M_feat(torch::rand({B, N, M}, torch::kFloat64) * 3.0),
+        ps(torch::randn({B, 3, N}, torch::kFloat64)),
+        pt(torch::randn({B, 3, M}, torch::kFloat64)) {}
+};
+
 }  // namespace
 
 TEST(DenseEdgeConv, FusedInferenceEqualsTheLayeredPath) {
@@ -135,6 +144,15 @@ TEST(DenseEdgeConv, FusedInferenceEqualsTheLayeredPath) {
     EXPECT_GT(layered.abs().max().item<float>(), 0.1f);
     EXPECT_TRUE(torch::allclose(fused, layered, 1e-4, 1e-5))
         << "k = " << k << ", max difference " << (fused - layered).abs().max().item<float>();
+    // The folded layers are kept between calls; weights changed in place (as by an optimiser
+    // step or a model load) must be folded again.
+    randomiseBatchNormStatistics(*conv);
+    const auto refused = conv->forward(x, idx);
+    const auto relayered = conv->forwardLayered(x, idx);
+    EXPECT_FALSE(torch::allclose(relayered, layered, 1e-2, 1e-3));
+    EXPECT_TRUE(torch::allclose(refused, relayered, 1e-4, 1e-5))
+        << "k = " << k << ", after new weights, max difference "
+        << (refused - relayered).abs().max().item<float>();
   }
 }
 
@@ -242,10 +260,9 @@ TEST(WeightedSvd, NeverReturnsAReflection) {
 
 TEST(Nmm, FastFormEqualsLiteralGather) {
   torch::manual_seed(9);
-  const int64_t B = 2, N = 13, M = 11;
-  const auto M_feat = torch::rand({B, N, M}, torch::kFloat64) * 3.0;
-  const auto ps = torch::randn({B, 3, N}, torch::kFloat64);
-  const auto pt = torch::randn({B, 3, M}, torch::kFloat64);
+  const int64_t B = 2, N = 13;
+  const NmmInputs in(B, N, 11);
+  const auto& [M_feat, ps, pt] = in;
   for (int64_t k : {1, 3, 5}) {
     const auto si = knnIndices(ps, ps, k);
     const auto ti = knnIndices(pt, pt, k);
@@ -265,13 +282,12 @@ TEST(Nmm, FastFormEqualsLiteralGather) {
 }
 
 TEST(Nmm, InferenceKernelsEqualTheLiteralGather) {
-  // Float without autograd takes the raw-loop kernels (column sums within rows of M′, then row
-  // sums); they must agree with the literal gather of the definition.
+  // Float without autograd takes the raw-loop kernels (row sums of M′ and M′² over the source
+  // neighbours, then over the target neighbours on the transpose); they must agree with the
+  // literal gather of the definition.
   torch::manual_seed(10);
-  const int64_t B = 2, N = 37, M = 29;
-  const auto M_feat = torch::rand({B, N, M}, torch::kFloat64) * 3.0;
-  const auto ps = torch::randn({B, 3, N}, torch::kFloat64);
-  const auto pt = torch::randn({B, 3, M}, torch::kFloat64);
+  const NmmInputs in(2, 37, 29);
+  const auto& [M_feat, ps, pt] = in;
   const auto si = knnIndices(ps, ps, 6);
   const auto ti = knnIndices(pt, pt, 4);
   const NmmParams p{0.7, 1e-6};

@@ -130,27 +130,50 @@ FoldedLayer foldConvBn(const nn::Sequential& seq) {
   return f;
 }
 
+/// Identity and in-place version of every tensor of the given blocks: equal keys, equal weights.
+using FoldKey = std::vector<std::pair<const void*, std::uint32_t>>;
+FoldKey foldKey(std::initializer_list<const nn::Sequential*> blocks) {
+  FoldKey key;
+  for (const auto* block : blocks) {
+    for (const auto& t : (*block)->parameters()) key.emplace_back(t.unsafeGetTensorImpl(), t._version());
+    for (const auto& t : (*block)->buffers()) key.emplace_back(t.unsafeGetTensorImpl(), t._version());
+  }
+  return key;
+}
+
 }  // namespace
+
+struct DenseEdgeConvImpl::FoldedCache {
+  FoldKey key;
+  FoldedLayer layers[4];
+  FoldedLayer out;
+};
 
 torch::Tensor DenseEdgeConvImpl::forwardFused(const torch::Tensor& x, const torch::Tensor& idx) {
   const int64_t B = x.size(0), N = x.size(2), k = k_, L = k * N;
-  const FoldedLayer layers[4] = {foldConvBn<nn::Conv2dImpl, nn::BatchNorm2dImpl>(layer1_),
-                                 foldConvBn<nn::Conv2dImpl, nn::BatchNorm2dImpl>(layer2_),
-                                 foldConvBn<nn::Conv2dImpl, nn::BatchNorm2dImpl>(layer3_),
-                                 foldConvBn<nn::Conv2dImpl, nn::BatchNorm2dImpl>(layer4_)};
-  const auto out = foldConvBn<nn::Conv1dImpl, nn::BatchNorm1dImpl>(out_);
+  auto key = foldKey({&layer1_, &layer2_, &layer3_, &layer4_, &out_});
+  if (!folded_ || folded_->key != key) {
+    auto f = std::make_shared<FoldedCache>();
+    f->key = std::move(key);
+    f->layers[0] = foldConvBn<nn::Conv2dImpl, nn::BatchNorm2dImpl>(layer1_);
+    f->layers[1] = foldConvBn<nn::Conv2dImpl, nn::BatchNorm2dImpl>(layer2_);
+    f->layers[2] = foldConvBn<nn::Conv2dImpl, nn::BatchNorm2dImpl>(layer3_);
+    f->layers[3] = foldConvBn<nn::Conv2dImpl, nn::BatchNorm2dImpl>(layer4_);
+    f->out = foldConvBn<nn::Conv1dImpl, nn::BatchNorm1dImpl>(out_);
+    folded_ = std::move(f);
+  }
+  const auto& layers = folded_->layers;
+  const auto& out = folded_->out;
   int64_t channels = 3;
   for (const auto& l : layers) channels += l.W.size(0);
   const int64_t pooled_channels = channels - 3;
   // Rows: e (3), h1, h2, h3, h4; columns: edge (j, i) at j·N + i (neighbour rank j of point i).
   // Layer l reads rows [0, c_l) — exactly the concatenation [e, h1, …, h_{l−1}] of the layered
-  // path — and writes its output into the next rows. The buffer (259 × k·N floats: 34 MB at
-  // k = 32, N = 1024) is kept per thread between calls: above 32 MB glibc would map and unmap it
-  // on every call, and touching fresh pages costs more than the layers' arithmetic.
-  thread_local torch::Tensor storage;
-  if (!storage.defined() || storage.numel() < channels * L || storage.dtype() != x.dtype())
-    storage = torch::empty({channels * L}, x.options());
-  auto buffer = storage.narrow(0, 0, channels * L).view({channels, L});
+  // path — and writes its output into the next rows.
+  if (!edge_buffer_.defined() || edge_buffer_.numel() < channels * L ||
+      edge_buffer_.dtype() != x.dtype())
+    edge_buffer_ = torch::empty({channels * L}, x.options());
+  auto buffer = edge_buffer_.narrow(0, 0, channels * L).view({channels, L});
   std::vector<torch::Tensor> features;
   features.reserve(static_cast<std::size_t>(B));
   for (int64_t b = 0; b < B; ++b) {

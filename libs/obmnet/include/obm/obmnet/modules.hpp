@@ -6,6 +6,7 @@
 #include <torch/torch.h>
 
 #include <cstdint>
+#include <memory>
 
 namespace obm::obmnet {
 
@@ -57,6 +58,14 @@ class DenseEdgeConvImpl : public torch::nn::Module {
   int64_t k_;
   torch::nn::Sequential layer1_{nullptr}, layer2_{nullptr}, layer3_{nullptr}, layer4_{nullptr};
   torch::nn::Sequential out_{nullptr};
+  /// Inference state of forwardFused (the module is not re-entrant, like the rest of ObmNet):
+  /// the folded layers, refolded only when a weight or statistic they came from has changed
+  /// (another tensor, or an in-place update such as an optimiser step or a model load), and
+  /// the edge buffer (259 × k·N floats, 34 MB at k = 32, N = 1024), kept between calls because
+  /// above 32 MB glibc would map and unmap it on every call.
+  struct FoldedCache;
+  std::shared_ptr<FoldedCache> folded_;
+  torch::Tensor edge_buffer_;
 };
 TORCH_MODULE(DenseEdgeConv);
 
