@@ -129,6 +129,38 @@ struct NmmInputs {
 
 }  // namespace
 
+TEST(Nmm, RefinedMatchingMapWithoutGradientEqualsTheGraph) {
+  // refinedMatchingMap without gradient (float, CPU: the row kernels) against the tensor graph in
+  // double, with NMM and without; B = 2, N ≠ M, neither a multiple of the kernels' row block,
+  // k_s ≠ k_t.
+  torch::manual_seed(13);
+  const int64_t B = 2, D = 16, N = 37, M = 45;
+  // Features far apart (scale 2), so that the matching maps are peaked.
+  const auto fp = torch::randn({B, D, N}) * 2.0;
+  const auto fq = torch::randn({B, D, M}) * 2.0;
+  const auto src_idx = obmnet::knnIndices(torch::randn({B, 3, N}), torch::randn({B, 3, N}), 4);
+  const auto tgt_idx = obmnet::knnIndices(torch::randn({B, 3, M}), torch::randn({B, 3, M}), 3);
+  const obmnet::NmmParams params{0.7, 1e-6};
+  const auto M_feat =
+      (obmnet::pairwiseSquaredDistance(fp.to(torch::kFloat64), fq.to(torch::kFloat64)) + 1e-12)
+          .sqrt();
+  // S is small by construction (D is normalised over the row), but its effect on M^r must be
+  // well above the tolerance below, or the comparison would not see a wrong S.
+  const auto nmm_effect =
+      (obmnet::nmm(M_feat, src_idx, tgt_idx, params) - torch::softmax(-M_feat, 2)).abs().max();
+  ASSERT_GT(nmm_effect.item<double>(), 1e-3);
+  for (const bool use_nmm : {true, false}) {
+    const auto reference =
+        use_nmm ? obmnet::nmm(M_feat, src_idx, tgt_idx, params) : torch::softmax(-M_feat, 2);
+    torch::NoGradGuard ng;
+    const auto kernel = obmnet::refinedMatchingMap(fp, fq, src_idx, tgt_idx, params, use_nmm);
+    ASSERT_EQ(kernel.sizes(), reference.sizes());
+    EXPECT_TRUE(torch::allclose(kernel.to(torch::kFloat64), reference, 1e-4, 1e-7))
+        << "NMM " << use_nmm << ", max difference "
+        << (kernel.to(torch::kFloat64) - reference).abs().max().item<double>();
+  }
+}
+
 TEST(DenseEdgeConv, FusedInferenceEqualsTheLayeredPath) {
   torch::manual_seed(5);
   for (int64_t k : {5, 32}) {
@@ -157,26 +189,68 @@ TEST(DenseEdgeConv, FusedInferenceEqualsTheLayeredPath) {
 }
 
 TEST(ObmNet, InferenceWithoutGradientsEqualsTheTrainingGraphInEvalMode) {
-  // Eval mode without gradients takes the fused extractor; with gradients enabled it runs the
-  // layer-by-layer graph of training. The two must give the same pose.
-  torch::manual_seed(6);
-  auto cfg = smallConfig();
-  cfg.k1 = 8;
-  obmnet::ObmNet net(cfg);
-  randomiseBatchNormStatistics(*net);
-  net->eval();
-  const auto src = torch::randn({2, 3, 60});
-  const auto tgt = torch::randn({2, 3, 64});
-  const auto with_graph = net->forward(src, tgt);
-  obmnet::ObmNetOutput fused;
-  {
-    torch::NoGradGuard ng;
-    fused = net->forward(src, tgt);
+  // Eval mode without gradients takes the fused extractor and the row-wise matching kernel; with
+  // gradients enabled it runs the layer-by-layer graph of training. The two must give the same
+  // pose, with neighbour map matching and without, on sizes that are not a multiple of the
+  // kernel's row block.
+  for (const bool use_nmm : {true, false}) {
+    torch::manual_seed(6);
+    auto cfg = smallConfig();
+    cfg.k1 = 8;
+    cfg.use_nmm = use_nmm;
+    obmnet::ObmNet net(cfg);
+    randomiseBatchNormStatistics(*net);
+    net->eval();
+    const auto src = torch::randn({2, 3, 60});
+    const auto tgt = torch::randn({2, 3, 64});
+    const auto with_graph = net->forward(src, tgt);
+    obmnet::ObmNetOutput fused;
+    {
+      torch::NoGradGuard ng;
+      fused = net->forward(src, tgt);
+    }
+    EXPECT_TRUE(torch::allclose(fused.R, with_graph.R.detach(), 1e-3, 1e-4))
+        << "NMM " << use_nmm << ", max difference "
+        << (fused.R - with_graph.R).abs().max().item<float>();
+    EXPECT_TRUE(torch::allclose(fused.t, with_graph.t.detach(), 1e-3, 1e-4)) << "NMM " << use_nmm;
+    EXPECT_TRUE(torch::allclose(fused.weights, with_graph.weights.detach(), 1e-3, 1e-4))
+        << "NMM " << use_nmm;
+    // The best candidates of the last matching map and their probabilities.
+    EXPECT_TRUE(torch::equal(fused.match_index.select(2, 0), with_graph.match_index.select(2, 0)))
+        << "NMM " << use_nmm;
+    EXPECT_TRUE(torch::allclose(fused.match_prob, with_graph.match_prob.detach(), 1e-3, 1e-5))
+        << "NMM " << use_nmm << ", max difference "
+        << (fused.match_prob - with_graph.match_prob).abs().max().item<float>();
   }
-  EXPECT_TRUE(torch::allclose(fused.R, with_graph.R.detach(), 1e-3, 1e-4))
-      << "max difference " << (fused.R - with_graph.R).abs().max().item<float>();
-  EXPECT_TRUE(torch::allclose(fused.t, with_graph.t.detach(), 1e-3, 1e-4));
-  EXPECT_TRUE(torch::allclose(fused.weights, with_graph.weights.detach(), 1e-3, 1e-4));
+}
+
+TEST(Knn, SortedNeighboursEqualAFullSortOfTheDistances) {
+  // knnIndices: the k nearest reference points, nearest first, for every query point. Checked
+  // against a double-precision sort of all distances (by distance at each rank, so that equal
+  // distances may come in either order), query ≠ reference, B = 2, k up to every point.
+  torch::manual_seed(12);
+  const auto query = torch::randn({2, 3, 50});
+  auto ref = torch::randn({2, 3, 70});
+  ref.select(2, 9).copy_(ref.select(2, 3));  // a duplicate point: two equal distances everywhere
+  const auto d =
+      obmnet::pairwiseSquaredDistance(query.to(torch::kFloat64), ref.to(torch::kFloat64));
+  const auto sorted = std::get<0>(d.sort(2));
+  for (int64_t k : {1, 7, 32, 70}) {
+    const auto idx = obmnet::knnIndices(query, ref, k);
+    ASSERT_EQ(idx.sizes(), (std::vector<int64_t>{2, 50, k}));
+    ASSERT_EQ(idx.scalar_type(), torch::kLong);
+    const auto picked = d.gather(2, idx);
+    EXPECT_TRUE(torch::allclose(picked, sorted.narrow(2, 0, k), 1e-9, 1e-5))
+        << "k = " << k << ", max difference "
+        << (picked - sorted.narrow(2, 0, k)).abs().max().item<double>();
+    // Each reference point at most once per row.
+    const auto uniq = std::get<0>(idx.sort(2));
+    EXPECT_TRUE((uniq.narrow(2, 1, k - 1) != uniq.narrow(2, 0, k - 1)).all().item<bool>() ||
+                k == 1);
+  }
+  // A cloud against itself: every point is its own nearest neighbour.
+  const auto self = obmnet::knnIndices(query, query, 5).select(2, 0);
+  EXPECT_TRUE(torch::equal(self, torch::arange(50).expand({2, 50})));
 }
 
 TEST(ObmNet, TrainingIsDeterministicUnderAFixedSeed) {

@@ -39,7 +39,7 @@ torch::Tensor fuse(torch::nn::Conv1d& fusion, const torch::Tensor& phi,
   const int64_t D = phi.size(1);
   OBM_ASSERT(!fusion->bias.defined() && fusion->weight.size(1) == 3 * D,
              "ObmNet: the overlap fusion must be a bias-free Conv1d over 3D channels");
-  const auto W = fusion->weight.squeeze(2);  // D × 3D
+  const auto W = fusion->weight.squeeze(2);                                    // D × 3D
   const auto ctx = torch::cat({summary_self, summary_other}, 1).unsqueeze(2);  // B×2D×1
   return phi + torch::matmul(W.narrow(1, 0, D), phi) + torch::matmul(W.narrow(1, D, 2 * D), ctx);
 }
@@ -110,28 +110,38 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
       }
     }
 
-    // Step 4: matching map M_ij = ‖Φ'_pi − Φ'_qj‖₂.
-    const auto M = (obmnet::pairwiseSquaredDistance(feat_p, feat_q) + 1e-12).sqrt();
-    // Step 5: neighbour map matching → M^r (log kept for L_s).
-    torch::Tensor log_match;
-    if (config_.use_nmm) {
-      const auto src_knn2 = nearestOf(src_knn1, src_cur, config_.k2);
-      // S is evaluated without gradient unless `nmm_score_grad`: the NMM sums create k_s + k_t
-      // full N×M tensors per iteration that back-propagation would have to keep (≈ 4 GB and half
-      // of the step time for a batch of 16 × 1024 points on a CPU). M still receives the
-      // neighbourhood-scaled gradient through M^e = exp(γ − S)·M.
-      torch::Tensor S;
-      if (config_.nmm_score_grad) {
-        S = obmnet::nmmScore(M, src_knn2, tgt_knn2, nmm_params);
-      } else {
-        torch::NoGradGuard ng;
-        S = obmnet::nmmScore(M.detach(), src_knn2, tgt_knn2, nmm_params);
-      }
-      log_match = torch::log_softmax(-(torch::exp(config_.nn_margin - S) * M), 2);
+    // Steps 4–5 → M^r (rows sum to 1). Without gradient and losses, as at inference, both run as
+    // one row-wise computation (refinedMatchingMap): same quantities, no full-map temporaries.
+    torch::Tensor log_match, match;  // log M^r is kept for L_s
+    const bool fused_match = !compute_loss && !torch::GradMode::is_enabled();
+    if (fused_match) {
+      const auto src_knn2 =
+          config_.use_nmm ? nearestOf(src_knn1, src_cur, config_.k2) : torch::Tensor();
+      match = obmnet::refinedMatchingMap(feat_p, feat_q, src_knn2, tgt_knn2, nmm_params,
+                                         config_.use_nmm);
     } else {
-      log_match = torch::log_softmax(-M, 2);
+      // Step 4: matching map M_ij = ‖Φ'_pi − Φ'_qj‖₂.
+      const auto M = (obmnet::pairwiseSquaredDistance(feat_p, feat_q) + 1e-12).sqrt();
+      // Step 5: neighbour map matching → M^r (log kept for L_s).
+      if (config_.use_nmm) {
+        const auto src_knn2 = nearestOf(src_knn1, src_cur, config_.k2);
+        // S is evaluated without gradient unless `nmm_score_grad`: the NMM sums create k_s + k_t
+        // full N×M tensors per iteration that back-propagation would have to keep (≈ 4 GB and half
+        // of the step time for a batch of 16 × 1024 points on a CPU). M still receives the
+        // neighbourhood-scaled gradient through M^e = exp(γ − S)·M.
+        torch::Tensor S;
+        if (config_.nmm_score_grad) {
+          S = obmnet::nmmScore(M, src_knn2, tgt_knn2, nmm_params);
+        } else {
+          torch::NoGradGuard ng;
+          S = obmnet::nmmScore(M.detach(), src_knn2, tgt_knn2, nmm_params);
+        }
+        log_match = torch::log_softmax(-(torch::exp(config_.nn_margin - S) * M), 2);
+      } else {
+        log_match = torch::log_softmax(-M, 2);
+      }
+      match = log_match.exp();
     }
-    const auto match = log_match.exp();  // B×N×M, rows sum to 1
     // Step 6: pseudo-target Q' = M^r·Q (one soft correspondence per source point).
     const auto pseudo = torch::bmm(tgt, match.transpose(1, 2));  // B×3×N
     // Step 7: inlier evaluation.
@@ -142,7 +152,7 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
     // weight positive; a single α on every weight would cancel in the normalised centroids.
     const auto omega = w * (1.0 + alpha.unsqueeze(1) * membership);
     const auto T_step = config_.planar ? obmnet::weightedProcrustesYaw(src_cur, pseudo, omega)
-                                    : obmnet::weightedProcrustes(src_cur, pseudo, omega);
+                                       : obmnet::weightedProcrustes(src_cur, pseudo, omega);
     T = obmnet::compose(T_step, T);
 
     if (compute_loss) {

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <vector>
 
+#include "kernels.hpp"
 #include "obm/core/errors.hpp"
 
 namespace obm::obmnet {
@@ -22,6 +23,9 @@ torch::Tensor knnIndices(const torch::Tensor& query, const torch::Tensor& ref, i
   OBM_ASSERT(k >= 1 && k <= ref.size(2),
              "knnIndices: k must be in [1, number of reference points]");
   torch::NoGradGuard no_grad;  // indices only
+  if (query.is_cpu() && ref.is_cpu() && query.scalar_type() == torch::kFloat32 &&
+      ref.scalar_type() == torch::kFloat32)
+    return detail::knnSortedCpu(query, ref, k);  // a sorted k-list per row, no N×M map or top-k
   const auto d = pairwiseSquaredDistance(query, ref);
   return std::get<1>(d.topk(k, /*dim=*/2, /*largest=*/false, /*sorted=*/true));
 }
@@ -88,9 +92,9 @@ DenseEdgeConvImpl::DenseEdgeConvImpl(int64_t k, int64_t emb_dims) : k_(k) {
 torch::Tensor DenseEdgeConvImpl::forward(const torch::Tensor& x, const torch::Tensor& idx_in) {
   OBM_ASSERT(x.dim() == 3 && x.size(1) == 3, "DenseEdgeConv expects points B×3×N");
   const auto idx = idx_in.defined() ? idx_in : knnIndices(x, x, k_);
-  OBM_ASSERT(idx.dim() == 3 && idx.size(0) == x.size(0) && idx.size(1) == x.size(2) &&
-                 idx.size(2) == k_,
-             "DenseEdgeConv: neighbour graph has the wrong shape");
+  OBM_ASSERT(
+      idx.dim() == 3 && idx.size(0) == x.size(0) && idx.size(1) == x.size(2) && idx.size(2) == k_,
+      "DenseEdgeConv: neighbour graph has the wrong shape");
   if (!is_training() && !torch::GradMode::is_enabled() && x.device().is_cpu())
     return forwardFused(x, idx);
   return forwardLayered(x, idx);
@@ -135,8 +139,10 @@ using FoldKey = std::vector<std::pair<const void*, std::uint32_t>>;
 FoldKey foldKey(std::initializer_list<const nn::Sequential*> blocks) {
   FoldKey key;
   for (const auto* block : blocks) {
-    for (const auto& t : (*block)->parameters()) key.emplace_back(t.unsafeGetTensorImpl(), t._version());
-    for (const auto& t : (*block)->buffers()) key.emplace_back(t.unsafeGetTensorImpl(), t._version());
+    for (const auto& t : (*block)->parameters())
+      key.emplace_back(t.unsafeGetTensorImpl(), t._version());
+    for (const auto& t : (*block)->buffers())
+      key.emplace_back(t.unsafeGetTensorImpl(), t._version());
   }
   return key;
 }
@@ -180,7 +186,7 @@ torch::Tensor DenseEdgeConvImpl::forwardFused(const torch::Tensor& x, const torc
     const auto xb = x[b].contiguous();                       // 3×N
     const auto nbr = idx[b].t().contiguous().reshape({-1});  // k·N, neighbour-rank major
     auto e = buffer.narrow(0, 0, 3);
-    torch::index_select_out(e, xb, 1, nbr);  // x_j
+    torch::index_select_out(e, xb, 1, nbr);   // x_j
     e.view({3, k, N}).sub_(xb.unsqueeze(1));  // x_j − x_i
     int64_t c = 3;
     for (const auto& l : layers) {
@@ -237,8 +243,8 @@ OverlapSamples OverlapSamplerImpl::forward(const torch::Tensor& phi_self,
            torch::matmul(W.narrow(1, D, 2 * D), global.unsqueeze(2));
   if (first->bias.defined()) z = z + first->bias.view({1, -1, 1});
   for (++layer; layer != logits_->end(); ++layer) z = layer->forward(z);
-  out.log_pi = torch::log_softmax(z.squeeze(1), 1);  // B×N
-  out.tau = torch::softplus(tau_->forward(global)).squeeze(1) + tau_min_;      // B
+  out.log_pi = torch::log_softmax(z.squeeze(1), 1);                        // B×N
+  out.tau = torch::softplus(tau_->forward(global)).squeeze(1) + tau_min_;  // B
 
   // Gumbel(0,1) noise g = −log(−log u), drawn on the CPU from the given generator so a fixed
   // seed reproduces the same draws, then moved to the module's device.

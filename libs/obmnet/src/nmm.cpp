@@ -4,7 +4,9 @@
 
 #include <vector>
 
+#include "kernels.hpp"
 #include "obm/core/errors.hpp"
+#include "obm/obmnet/modules.hpp"
 
 namespace obm::obmnet {
 
@@ -99,8 +101,8 @@ torch::Tensor nmmScore(const torch::Tensor& M, const torch::Tensor& src_idx,
   const int64_t B = M.size(0);
   const int64_t ks = src_idx.size(2), kt = tgt_idx.size(2);
   const auto Mp = torch::softmax(-M, 2);  // M′ = row-softmax(−M)
-  const bool fast = !torch::GradMode::is_enabled() && Mp.scalar_type() == torch::kFloat32 &&
-                    Mp.device().is_cpu();
+  const bool fast =
+      !torch::GradMode::is_enabled() && Mp.scalar_type() == torch::kFloat32 && Mp.device().is_cpu();
   const auto Mp2 = fast ? torch::Tensor() : Mp * Mp;
   // The double sums as a row sum over the source neighbours followed by a column sum over the
   // target neighbours, per batch element: O(N·M·(k_s + k_t)) instead of the literal gather with
@@ -109,7 +111,8 @@ torch::Tensor nmmScore(const torch::Tensor& M, const torch::Tensor& src_idx,
   std::vector<torch::Tensor> As, ds;
   for (int64_t b = 0; b < B; ++b) {
     // R_A[i,·] = Σ_a M′[src_idx(i,a), ·] and R_D of M′² beside it (N × 2M), transposed so that
-    // A[i,j] = Σ_b R_A[i, tgt_idx(j,b)] is again a sum of whole rows: Aᵀ[j,·] = Σ_b R_Aᵀ[tgt_idx(j,b), ·].
+    // A[i,j] = Σ_b R_A[i, tgt_idx(j,b)] is again a sum of whole rows: Aᵀ[j,·] = Σ_b
+    // R_Aᵀ[tgt_idx(j,b), ·].
     const auto R = fast ? neighbourRowSumsWithSquaresKernel(Mp[b], src_idx[b])
                         : neighbourRowSum(torch::cat({Mp[b], Mp2[b]}, 1), src_idx[b]);
     const auto Rt = R.t().contiguous();  // 2M × N: rows of R_Aᵀ, then of R_Dᵀ
@@ -131,6 +134,17 @@ torch::Tensor nmmEnhancedCost(const torch::Tensor& M, const torch::Tensor& src_i
 torch::Tensor nmm(const torch::Tensor& M, const torch::Tensor& src_idx,
                   const torch::Tensor& tgt_idx, const NmmParams& params) {
   return torch::softmax(-nmmEnhancedCost(M, src_idx, tgt_idx, params), 2);
+}
+
+torch::Tensor refinedMatchingMap(const torch::Tensor& feat_p, const torch::Tensor& feat_q,
+                                 const torch::Tensor& src_idx, const torch::Tensor& tgt_idx,
+                                 const NmmParams& params, bool use_nmm) {
+  if (!torch::GradMode::is_enabled() && feat_p.is_cpu() && feat_q.is_cpu() &&
+      feat_p.scalar_type() == torch::kFloat32 && feat_q.scalar_type() == torch::kFloat32)
+    return detail::matchingMapCpu(feat_p, feat_q, src_idx, tgt_idx,
+                                  detail::MatchKernelParams{use_nmm, params.gamma, params.beta});
+  const auto M = (pairwiseSquaredDistance(feat_p, feat_q) + 1e-12).sqrt();
+  return use_nmm ? nmm(M, src_idx, tgt_idx, params) : torch::softmax(-M, 2);
 }
 
 torch::Tensor nmmEnhancedCostLiteral(const torch::Tensor& M, const torch::Tensor& src_idx,

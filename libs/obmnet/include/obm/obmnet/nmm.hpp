@@ -34,6 +34,14 @@ torch::Tensor nmmScore(const torch::Tensor& M, const torch::Tensor& src_idx,
 torch::Tensor nmm(const torch::Tensor& M, const torch::Tensor& src_idx,
                   const torch::Tensor& tgt_idx, const NmmParams& params);
 
+/// Steps 4–5 together: the refined matching map M^r (B×N×M, rows sum to 1) from the fused
+/// features `feat_p` B×D×N and `feat_q` B×D×M, M_ij = ‖f_pi − f_qj‖; with `use_nmm` M^r = nmm(M),
+/// else row-softmax(−M). Without gradient, on float CPU tensors, it runs as raw row kernels (two
+/// passes over the rows, no full-map temporaries); otherwise as the tensor graph above.
+torch::Tensor refinedMatchingMap(const torch::Tensor& feat_p, const torch::Tensor& feat_q,
+                                 const torch::Tensor& src_idx, const torch::Tensor& tgt_idx,
+                                 const NmmParams& params, bool use_nmm = true);
+
 /// Reference implementation of `nmmEnhancedCost` with the literal B×N×k×M×k gather of M′
 /// (memory and time O(N·M·k²)). For tests on small inputs only.
 torch::Tensor nmmEnhancedCostLiteral(const torch::Tensor& M, const torch::Tensor& src_idx,
