@@ -31,17 +31,25 @@ ObmNetImpl::ObmNetImpl(const ObmNetConfig& config) : config_(config) {
 
 namespace {
 
-/// Φ' of the matching map: the features fused with the overlap representations (step 4).
-torch::Tensor fuse(torch::nn::Conv1d& fusion, const torch::Tensor& phi,
-                   const torch::Tensor& summary_self, const torch::Tensor& summary_other) {
-  // conv([Φ; T_self; T_other]) split by the weight's columns, W_Φ·Φ + W_T·[T_self; T_other]: the
-  // summaries are one vector per cloud, so they need not be broadcast over the N points.
+/// W_Φ·Φ, the per-point share of the overlap fusion conv([Φ; T_self; T_other]) (step 4).
+torch::Tensor fusionProjection(torch::nn::Conv1d& fusion, const torch::Tensor& phi) {
   const int64_t D = phi.size(1);
   OBM_ASSERT(!fusion->bias.defined() && fusion->weight.size(1) == 3 * D,
              "ObmNet: the overlap fusion must be a bias-free Conv1d over 3D channels");
-  const auto W = fusion->weight.squeeze(2);                                    // D × 3D
+  return torch::matmul(fusion->weight.squeeze(2).narrow(1, 0, D), phi);
+}
+
+/// Φ' of the matching map: the features fused with the overlap representations (step 4), from
+/// `projected` = fusionProjection(fusion, phi).
+torch::Tensor fuse(torch::nn::Conv1d& fusion, const torch::Tensor& phi,
+                   const torch::Tensor& projected, const torch::Tensor& summary_self,
+                   const torch::Tensor& summary_other) {
+  // conv([Φ; T_self; T_other]) split by the weight's columns, W_Φ·Φ + W_T·[T_self; T_other]: the
+  // summaries are one vector per cloud, so they need not be broadcast over the N points.
+  const int64_t D = phi.size(1);
+  const auto W_T = fusion->weight.squeeze(2).narrow(1, D, 2 * D);              // D × 2D
   const auto ctx = torch::cat({summary_self, summary_other}, 1).unsqueeze(2);  // B×2D×1
-  return phi + torch::matmul(W.narrow(1, 0, D), phi) + torch::matmul(W.narrow(1, D, 2 * D), ctx);
+  return phi + projected + torch::matmul(W_T, ctx);
 }
 
 /// The k nearest neighbours of each point of `pts`: the first k columns of a sorted larger
@@ -78,6 +86,13 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
   const auto tgt_knn1 = obmnet::knnIndices(tgt, tgt, config_.k1);
   const auto tgt_knn2 = nearestOf(tgt_knn1, tgt, config_.k2);
   const auto phi_q = extractor_->forward(tgt, tgt_knn1);
+  // The target's per-point shares of the sampler's first layer and of the fusion (W_Φ·Φ_q) do
+  // not change over the iterations either.
+  torch::Tensor phi_q_logits, phi_q_fusion;
+  if (sampler_) {
+    phi_q_logits = sampler_->project(phi_q);
+    phi_q_fusion = fusionProjection(overlap_fusion_, phi_q);
+  }
 
   torch::Tensor loss_g = torch::zeros({}, opts), loss_n = torch::zeros({}, opts),
                 loss_s = torch::zeros({}, opts);
@@ -97,9 +112,10 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
     torch::Tensor overlap = torch::ones({B}, opts);
     if (sampler_) {
       const auto os_p = sampler_->forward(phi_p, phi_q, src_cur, gen);
-      const auto os_q = sampler_->forward(phi_q, phi_p, tgt, gen);
-      feat_p = fuse(overlap_fusion_, phi_p, os_p.summary, os_q.summary);
-      feat_q = fuse(overlap_fusion_, phi_q, os_q.summary, os_p.summary);
+      const auto os_q = sampler_->forward(phi_q, phi_p, tgt, gen, phi_q_logits);
+      feat_p = fuse(overlap_fusion_, phi_p, fusionProjection(overlap_fusion_, phi_p), os_p.summary,
+                    os_q.summary);
+      feat_q = fuse(overlap_fusion_, phi_q, phi_q_fusion, os_q.summary, os_p.summary);
       overlap = 0.5 * (os_p.overlap + os_q.overlap);
       if (bias_) {
         alpha = bias_->forward(os_p.points, os_q.points);

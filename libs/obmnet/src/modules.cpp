@@ -223,9 +223,28 @@ OverlapSamplerImpl::OverlapSamplerImpl(int64_t emb_dims, int64_t n_samples, doub
                                        nn::LeakyReLU(nn::LeakyReLUOptions().negative_slope(0.2))));
 }
 
+namespace {
+
+/// The first logits layer of the sampler, checked to be the Conv1d over [Φ_i; global] (3D rows).
+const nn::Conv1dImpl& firstLogitsLayer(const nn::Sequential& logits, int64_t D) {
+  const auto* first = logits->begin()->ptr()->as<nn::Conv1dImpl>();
+  OBM_ASSERT(first && first->weight.size(1) == 3 * D,
+             "OverlapSampler: the first logits layer must be a Conv1d over 3D channels");
+  return *first;
+}
+
+}  // namespace
+
+torch::Tensor OverlapSamplerImpl::project(const torch::Tensor& phi) const {
+  const int64_t D = phi.size(1);
+  const auto W = firstLogitsLayer(logits_, D).weight.squeeze(2);  // D_out × 3D
+  return torch::matmul(W.narrow(1, 0, D), phi);
+}
+
 OverlapSamples OverlapSamplerImpl::forward(const torch::Tensor& phi_self,
                                            const torch::Tensor& phi_other,
-                                           const torch::Tensor& points, at::Generator& gen) {
+                                           const torch::Tensor& points, at::Generator& gen,
+                                           const torch::Tensor& projected_self) {
   const int64_t B = phi_self.size(0), D = phi_self.size(1), N = phi_self.size(2);
   OBM_ASSERT(points.size(2) == N && phi_other.size(1) == D, "OverlapSampler: inconsistent shapes");
   OverlapSamples out;
@@ -234,14 +253,12 @@ OverlapSamples OverlapSamplerImpl::forward(const torch::Tensor& phi_self,
   // The first 1×1 convolution sees [Φ_i; global] per point. Split by columns, W·[Φ_i; g] =
   // W_Φ·Φ_i + W_g·g: the global part is one vector per cloud instead of a broadcast 2D×N block
   // (two thirds of the layer's multiplications and the concatenation's copy saved).
-  auto layer = logits_->begin();
-  const auto* first = layer->ptr()->as<nn::Conv1dImpl>();
-  OBM_ASSERT(first && first->weight.size(1) == 3 * D,
-             "OverlapSampler: the first logits layer must be a Conv1d over 3D channels");
-  const auto W = first->weight.squeeze(2);  // D_out × 3D
-  auto z = torch::matmul(W.narrow(1, 0, D), phi_self) +
+  const auto& first = firstLogitsLayer(logits_, D);
+  const auto W = first.weight.squeeze(2);  // D_out × 3D
+  auto z = (projected_self.defined() ? projected_self : project(phi_self)) +
            torch::matmul(W.narrow(1, D, 2 * D), global.unsqueeze(2));
-  if (first->bias.defined()) z = z + first->bias.view({1, -1, 1});
+  if (first.bias.defined()) z = z + first.bias.view({1, -1, 1});
+  auto layer = logits_->begin();
   for (++layer; layer != logits_->end(); ++layer) z = layer->forward(z);
   out.log_pi = torch::log_softmax(z.squeeze(1), 1);                        // B×N
   out.tau = torch::softplus(tau_->forward(global)).squeeze(1) + tau_min_;  // B
@@ -256,15 +273,19 @@ OverlapSamples OverlapSamplerImpl::forward(const torch::Tensor& phi_self,
   if (is_training() || soft_inference_) {
     // Differentiable relaxation: softmax((log π + g)/τ).
     out.selection = torch::softmax(scores / out.tau.view({B, 1, 1}), 2);
+    const auto S_t = out.selection.transpose(1, 2);  // B×N×K
+    out.points = torch::bmm(points, S_t);            // B×3×K
+    out.features = up_->forward(torch::bmm(phi_self, S_t));
   } else {
     // Inference, by default: the exact categorical draw one_hot(argmax(log π + g)) (τ does not
-    // change it).
-    out.selection = torch::one_hot(scores.argmax(2), N).to(phi_self.scalar_type());
+    // change it). S·P and S·Φ are then the drawn columns themselves: gathered, not multiplied.
+    const auto drawn = scores.argmax(2);  // B×K
+    out.selection = torch::one_hot(drawn, N).to(phi_self.scalar_type());
+    const auto cols = drawn.unsqueeze(1);
+    out.points = points.gather(2, cols.expand({B, points.size(1), n_samples_}));
+    out.features = up_->forward(phi_self.gather(2, cols.expand({B, D, n_samples_})));
   }
-  const auto S_t = out.selection.transpose(1, 2);          // B×N×K
-  out.points = torch::bmm(points, S_t);                    // B×3×K
-  out.features = up_->forward(torch::bmm(phi_self, S_t));  // B×D×K
-  out.summary = out.features.amax(2);                      // B×D
+  out.summary = out.features.amax(2);  // B×D
 
   const auto pi = out.log_pi.exp();
   // m_i = 1 − (1 − π_i)^K, computed as 1 − exp(K·log1p(−π_i)) for accuracy with small π_i.

@@ -99,8 +99,15 @@ class OverlapSamplerImpl : public torch::nn::Module {
   OverlapSamplerImpl(int64_t emb_dims, int64_t n_samples, double tau_min);
   /// `phi_self` B×D×N, `phi_other` B×D×M, `points` B×3×N; `gen` drives the Gumbel noise.
   /// Samples the cloud of `phi_self`; call twice with the roles swapped for both clouds.
+  /// `projected_self`, if given, is project(phi_self) computed before: the target's features do
+  /// not change over the registration iterations, so their share of the first layer need not
+  /// either.
   OverlapSamples forward(const torch::Tensor& phi_self, const torch::Tensor& phi_other,
-                         const torch::Tensor& points, at::Generator& gen);
+                         const torch::Tensor& points, at::Generator& gen,
+                         const torch::Tensor& projected_self = {});
+  /// The per-point share W_Φ·Φ of the first logits layer (B×D×N); the rest of that layer acts on
+  /// the global features only.
+  torch::Tensor project(const torch::Tensor& phi) const;
   /// Eval mode draws the relaxed samples of training instead of one-hot ones
   /// (ObmNetConfig::soft_inference_sampling).
   void setSoftInference(bool soft) { soft_inference_ = soft; }
