@@ -161,6 +161,56 @@ TEST(Nmm, RefinedMatchingMapWithoutGradientEqualsTheGraph) {
   }
 }
 
+TEST(InlierEvaluator, InferenceWithoutGradientEqualsTheGraph) {
+  // Eval mode without gradient folds batch normalisation into the convolutions and evaluates
+  // both clouds' edges in one block; with gradients it runs the training graph. Same weights.
+  torch::manual_seed(14);
+  // Statistics near the identity: the fully random ones of randomiseBatchNormStatistics saturate
+  // the score (w = 1 − tanh|s| = 0 everywhere), which would hide any difference.
+  const auto mildStatistics = [](torch::nn::Module& m) {
+    torch::NoGradGuard ng;
+    for (auto& item : m.named_buffers()) {
+      if (item.key().find("running_mean") != std::string::npos)
+        item.value().copy_(0.1 * torch::randn_like(item.value()));
+      if (item.key().find("running_var") != std::string::npos)
+        item.value().copy_(torch::rand_like(item.value()) + 0.5);
+    }
+    for (auto& item : m.named_parameters()) {
+      if (item.value().dim() == 1 && item.key().find("weight") != std::string::npos)
+        item.value().copy_(1.0 + 0.2 * torch::randn_like(item.value()));
+      // A larger last score layer without offset: an untrained score barely varies over the
+      // points.
+      if (item.key() == "score.6.weight") item.value().mul_(30.0);
+      if (item.key() == "score.6.bias") item.value().zero_();
+    }
+  };
+  for (int64_t k : {5, 32}) {
+    obmnet::InlierEvaluator inlier(8);
+    mildStatistics(*inlier);
+    inlier->eval();
+    const auto src = torch::randn({2, 3, 70});
+    // The pseudo-targets: the source moved a little, so that the weights spread over (0, 1).
+    const auto pseudo = src + 0.3 * torch::randn({2, 3, 70});
+    const auto idx = obmnet::knnIndices(src, src, k);
+    const auto graph = inlier->forward(src, pseudo, idx).detach();
+    ASSERT_GT((graph.amax(1) - graph.amin(1)).min().item<float>(), 0.01f)
+        << "weights too uniform to test, k = " << k;
+    torch::NoGradGuard ng;
+    const auto fused = inlier->forward(src, pseudo, idx);
+    EXPECT_TRUE(torch::allclose(fused, graph, 1e-4, 1e-6))
+        << "k = " << k << ", max difference " << (fused - graph).abs().max().item<float>();
+    // Folded once and kept: new statistics must be folded again.
+    mildStatistics(*inlier);
+    const auto refused = inlier->forward(src, pseudo, idx);
+    torch::GradMode::set_enabled(true);
+    const auto regraph = inlier->forward(src, pseudo, idx).detach();
+    torch::GradMode::set_enabled(false);
+    EXPECT_TRUE(torch::allclose(refused, regraph, 1e-4, 1e-6))
+        << "k = " << k << ", after new statistics, max difference "
+        << (refused - regraph).abs().max().item<float>();
+  }
+}
+
 TEST(DenseEdgeConv, FusedInferenceEqualsTheLayeredPath) {
   torch::manual_seed(5);
   for (int64_t k : {5, 32}) {

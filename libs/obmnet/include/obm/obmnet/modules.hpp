@@ -157,6 +157,13 @@ class InlierEvaluatorImpl : public torch::nn::Module {
                         const torch::Tensor& idx);
 
  private:
+  /// Eval mode without gradient on a CPU: batch normalisation folded into the convolutions and
+  /// kept until a weight or statistic changes (as DenseEdgeConv's), both clouds' edges in one
+  /// block.
+  torch::Tensor forwardFused(const torch::Tensor& src, const torch::Tensor& pseudo_tgt,
+                             const torch::Tensor& idx);
+  struct FoldedCache;
+  std::shared_ptr<FoldedCache> folded_;
   torch::nn::Sequential shared_{nullptr};
   torch::nn::Sequential feature_head_{nullptr};
   torch::nn::Conv2d attention_head_{nullptr};
