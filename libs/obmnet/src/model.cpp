@@ -86,6 +86,9 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
   const auto tgt_knn1 = obmnet::knnIndices(tgt, tgt, config_.k1);
   const auto tgt_knn2 = nearestOf(tgt_knn1, tgt, config_.k2);
   const auto phi_q = extractor_->forward(tgt, tgt_knn1);
+  // The source's neighbourhoods do not change either: the iterations move it rigidly, which
+  // keeps every distance within it (the features, which see coordinates, are recomputed).
+  const auto src_knn1 = obmnet::knnIndices(src, src, config_.k1);
   // The target's per-point shares of the sampler's first layer and of the fusion (W_Φ·Φ_q) do
   // not change over the iterations either.
   torch::Tensor phi_q_logits, phi_q_fusion;
@@ -101,8 +104,7 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
     // The source as moved by the iterations so far. Each iteration learns on its own input:
     // the gradient does not flow back through the earlier iterations' poses (as in RIENet).
     const auto src_cur = obmnet::transformPoints(T, src).detach();
-    // Step 1: features (kNN recomputed on the transformed source).
-    const auto src_knn1 = obmnet::knnIndices(src_cur, src_cur, config_.k1);
+    // Step 1: features of the moved source.
     const auto phi_p = extractor_->forward(src_cur, src_knn1);
 
     // Steps 2–3: overlap sampling and bias prediction.
