@@ -33,6 +33,7 @@ int main(int argc, char** argv) {
   std::string config_path, out_dir, data_dir;
   bool resume = false;
   int threads = 0, epochs = 0, measure = 0, overfit = 0, overfit_epoch = 0, batch = 0;
+  bool validate_only = false;
   double max_hours = -1.0;
   std::string log_level;
   std::vector<std::string> overrides;
@@ -52,6 +53,9 @@ int main(int argc, char** argv) {
   app.add_option("--data", data_dir,
                  "override data.dir (mesh folder, or the folder of the KITTI sequences)");
   app.add_option("--measure", measure, "only measure training throughput on N batches and exit");
+  app.add_flag("--validate", validate_only,
+               "only score the model (--init, else a fresh one) on the validation pairs and exit: "
+               "MIE(R), MIE(t), recall and the correspondence inlier ratio (train.inlier_radius)");
   app.add_option(
       "--overfit", overfit,
       "sanity check: N steps on one fixed batch of a fresh model, printing the rotation error");
@@ -180,6 +184,15 @@ int main(int argc, char** argv) {
                     r.translation_error, r.mode.c_str());
       return 0;
     }
+    if (validate_only) {
+      const auto v = trainer.validate();
+      std::printf(
+          "validation: MIE(R) %.4f deg  MIE(t) %.5f  recall %.3f  inlier ratio %.4f "
+          "(radius %g)  mean alpha %.4g  loss %.5f\n",
+          v.mie_r, v.mie_t, v.recall, v.inlier_ratio, cfg.inlier_radius,
+          v.mean_alpha, v.loss);
+      return 0;
+    }
     if (measure > 0) {
       std::printf("training throughput: %.2f pairs/s (batch %d, %d threads)\n",
                   trainer.measureThroughput(measure), cfg.batch_size, cfg.threads);
@@ -190,8 +203,9 @@ int main(int argc, char** argv) {
     if (!stats.empty()) {
       const auto& s = stats.back();
       std::printf(
-          "epoch %d: loss %.5f  val MIE(R) %.4f deg  MIE(t) %.5f  recall %.3f  (%.0f s trained)\n",
-          s.epoch, s.loss, s.val_mie_r, s.val_mie_t, s.val_recall, s.wall_s);
+          "epoch %d: loss %.5f  val MIE(R) %.4f deg  MIE(t) %.5f  recall %.3f  inlier ratio %.4f  "
+          "(%.0f s trained)\n",
+          s.epoch, s.loss, s.val_mie_r, s.val_mie_t, s.val_recall, s.val_inlier_ratio, s.wall_s);
     }
     std::printf("model: %s/best.pt   log: %s/train_log.csv\n", out_dir.c_str(), out_dir.c_str());
     return stop ? 130 : 0;

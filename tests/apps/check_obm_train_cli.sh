@@ -46,6 +46,13 @@ grep -q 'objects:' log2.txt || fail "resumed run did not read the meshes of the 
 [[ $(grep -c '^[0-9]' run/train_log.csv) -eq 2 ]] || fail "train_log.csv: expected 2 epoch rows"
 grep -q 'epochs: 2$' $cfg || fail "config.yaml of the resumed run must record --epochs 2"
 
+# --validate scores the trained model on the validation pairs and exits; the log has the column.
+"$tool" -c $cfg -o run_val --init run/best.pt --validate > log3.txt 2>&1 || { cat log3.txt; fail "--validate"; }
+grep -Eq '^validation: MIE\(R\) [0-9.]+ deg .*inlier ratio [0-9.]+' log3.txt || {
+  cat log3.txt; fail "--validate must print MIE(R) and the inlier ratio"; }
+[[ ! -e run_val/train_log.csv ]] || fail "--validate must not train"
+head -1 run/train_log.csv | grep -q 'val_inlier_ratio' || fail "train_log.csv: no val_inlier_ratio column"
+
 # Bad input: a misspelt key names the file and the key; a missing config is a clear error.
 set +e
 "$tool" -c $cfg -o run2 --set train.lr_stepz=3 > bad1.txt 2>&1

@@ -84,3 +84,30 @@ TEST(TrainingRuns, PoseLabelTermNeedsLabelsAndEntersTheLoss) {
   EXPECT_NEAR(s[0].loss, s[0].loss_global + s[0].loss_neighbor + s[0].loss_spatial + s[0].loss_pose,
               1e-3 * std::abs(s[0].loss) + 1e-6);
 }
+
+TEST(TrainingRuns, ValidationInlierRatioScoresTheMatchesAgainstTheTruePose) {
+  // Two validation pairs whose target is the source itself. Without overlap sampling the two
+  // clouds then have equal features, so every point's most probable match is itself: all inliers
+  // under the identity as the true pose, none under a true pose 5 units away. The mean is 0.5
+  // whatever the weights, which checks the metric and its point order, not the model.
+  TrainConfig tc = twoEpochConfig();
+  tc.model.use_overlap_sampling = false;
+  tc.model.use_bias_prediction = false;
+  tc.inlier_radius = 1e-3;
+  const std::vector<PointCloud> clouds = test::blobClouds(1, 150, 90);
+  RegistrationPair same;
+  same.source = clouds[0];
+  same.target = clouds[0];
+  RegistrationPair elsewhere = same;
+  elsewhere.T_target_source.translation() = Eigen::Vector3d(5.0, 0.0, 0.0);
+  const auto protocol = tc.protocol;
+  PairSampler sampler = [clouds, protocol](std::mt19937_64& rng, int) {
+    return makePair(clouds[0], protocol, rng);
+  };
+  const std::string dir = test::scratchDir("inlier_ratio");
+  std::filesystem::remove_all(dir);
+  Trainer t(tc, sampler, {same, elsewhere}, dir);
+  EXPECT_DOUBLE_EQ(t.validate().inlier_ratio, 0.5);
+  Trainer only_same(tc, sampler, {same}, dir + "/same");
+  EXPECT_DOUBLE_EQ(only_same.validate().inlier_ratio, 1.0);
+}

@@ -34,7 +34,7 @@ TrainConfig TrainConfig::load(const ConfigNode& root) {
                "val_pairs", "lr", "weight_decay", "lr_steps", "lr_gamma", "normalize_radius",
                "recall_deg", "recall_trans", "max_grad_norm", "threads", "seed", "max_hours",
                "curriculum_epochs", "curriculum_start", "device", "pose_loss_weight",
-               "loss_weights", "select_on"});
+               "loss_weights", "select_on", "inlier_radius"});
   c.protocol = PairProtocol::load(t.child("pairs"));
   c.val_protocol =
       t.has("val_pairs_protocol") ? PairProtocol::load(t.child("val_pairs_protocol")) : c.protocol;
@@ -49,6 +49,7 @@ TrainConfig TrainConfig::load(const ConfigNode& root) {
   t.get("normalize_radius", c.normalize_radius);
   t.get("recall_deg", c.recall_deg);
   t.get("recall_trans", c.recall_trans);
+  t.get("inlier_radius", c.inlier_radius);
   t.get("max_grad_norm", c.max_grad_norm);
   t.get("threads", c.threads);
   t.get("seed", c.seed);
@@ -100,11 +101,30 @@ TrainConfig TrainConfig::load(const ConfigNode& root) {
   positive("lr", c.lr);
   positive("lr_gamma", c.lr_gamma);
   positive("normalize_radius", c.normalize_radius);
+  positive("inlier_radius", c.inlier_radius);
   positive("threads", c.threads);
   return c;
 }
 
 namespace {
+
+/// Share of the source points whose matched target point (`match`, one target index per source
+/// point, in the pair's point order) lies within `radius` of the source point moved by the true
+/// pose T_target_source.
+double inlierRatio(const RegistrationPair& pair, const torch::Tensor& match, double radius) {
+  const auto m = match.to(torch::kCPU, torch::kLong).contiguous();
+  const auto* idx = m.data_ptr<int64_t>();
+  const auto n = static_cast<std::size_t>(m.numel());
+  OBM_ASSERT(n == pair.source.size(), "inlierRatio: one match per source point expected");
+  std::size_t inliers = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto q = static_cast<std::size_t>(idx[i]);
+    OBM_ASSERT(q < pair.target.size(), "inlierRatio: match index outside the target");
+    const Eigen::Vector3d moved = pair.T_target_source * pair.source.points[i].cast<double>();
+    if ((moved - pair.target.points[q].cast<double>()).norm() < radius) ++inliers;
+  }
+  return n == 0 ? 0.0 : static_cast<double>(inliers) / static_cast<double>(n);
+}
 
 /// A batch of normalised pairs as tensors, and what is needed to score them.
 struct Batch {
@@ -193,7 +213,8 @@ Isometry3d toIsometry(const torch::Tensor& R, const torch::Tensor& t, int64_t i)
 
 std::string csvHeader() {
   return "epoch,lr,loss,loss_global,loss_neighbor,loss_spatial,val_loss,val_mie_r_deg,val_mie_t,"
-         "val_recall,val_mean_alpha,pairs_per_s,wall_s,best,comm_ms_per_step,loss_pose\n";
+         "val_recall,val_mean_alpha,pairs_per_s,wall_s,best,comm_ms_per_step,loss_pose,"
+         "val_inlier_ratio\n";
 }
 
 std::string csvRow(const EpochStats& s) {
@@ -201,7 +222,8 @@ std::string csvRow(const EpochStats& s) {
   os << std::setprecision(8) << s.epoch << ',' << s.lr << ',' << s.loss << ',' << s.loss_global
      << ',' << s.loss_neighbor << ',' << s.loss_spatial << ',' << s.val_loss << ',' << s.val_mie_r
      << ',' << s.val_mie_t << ',' << s.val_recall << ',' << s.val_mean_alpha << ',' << s.pairs_per_s
-     << ',' << s.wall_s << ',' << (s.best ? 1 : 0) << ',' << s.comm_ms_per_step << ',' << s.loss_pose << '\n';
+     << ',' << s.wall_s << ',' << (s.best ? 1 : 0) << ',' << s.comm_ms_per_step << ',' << s.loss_pose << ','
+     << s.val_inlier_ratio << '\n';
   return os.str();
 }
 
@@ -451,11 +473,15 @@ struct Trainer::Impl {
         s.mie_t += et;
         hits += (er < cfg.recall_deg && et < cfg.recall_trans) ? 1 : 0;
         s.mean_alpha += o.alpha[static_cast<int64_t>(j)].item<double>();
+        s.inlier_ratio += inlierRatio(b.pairs[j], o.match_index[static_cast<int64_t>(j)].select(1, 0),
+                                      cfg.inlier_radius);
       }
     }
     if (group) {
-      std::vector<double> sums{s.loss, s.mie_r, s.mie_t, s.mean_alpha, static_cast<double>(hits)};
+      std::vector<double> sums{s.loss,       s.mie_r, s.mie_t, s.mean_alpha, static_cast<double>(hits),
+                               s.inlier_ratio};
       group->allReduceSum(sums);
+      s.inlier_ratio = sums[5];
       s.loss = sums[0];
       s.mie_r = sums[1];
       s.mie_t = sums[2];
@@ -467,6 +493,7 @@ struct Trainer::Impl {
     s.mie_r /= n;
     s.mie_t /= n;
     s.mean_alpha /= n;
+    s.inlier_ratio /= n;
     s.recall = hits / n;
     return s;
   }
@@ -801,6 +828,7 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
     s.val_mie_t = v.mie_t;
     s.val_recall = v.recall;
     s.val_mean_alpha = v.mean_alpha;
+    s.val_inlier_ratio = v.inlier_ratio;
     s.wall_s = wall0 + wall.seconds();
     const double score = I.cfg.select_on == TrainConfig::Selection::MieT ? v.mie_t : v.mie_r;
     if (score < best) {
@@ -822,7 +850,7 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
     }
     std::ostringstream st;
     st << std::setprecision(4) << "loss " << s.loss << "  val MIE(R) " << v.mie_r << " deg  recall "
-       << v.recall << (s.best ? "  *best*" : "");
+       << v.recall << "  inliers " << v.inlier_ratio << (s.best ? "  *best*" : "");
     bar.finish(st.str());
     if (writer) {
       I.saveCheckpoint(epoch, best, s.wall_s);

@@ -39,6 +39,11 @@ struct TrainConfig {
   double normalize_radius = 1.0;  ///< pair normalisation radius (PairNormalization)
   double recall_deg = 1.0;        ///< validation recall: MIE(R) below this ...
   double recall_trans = 0.05;     ///< ... and MIE(t) below this [normalised units]
+  /// Validation inlier ratio: a source point's most probable target point (last iteration) is a
+  /// correct match when it lies within this distance of the source point moved by the true pose
+  /// [units of the pairs: 0.1 for unit-sphere objects and metric indoor fragments; ~1 m suits
+  /// LiDAR keypoints]. It scores the features' matching, apart from the pose solve.
+  double inlier_radius = 0.1;
   double max_grad_norm = 10.0;    ///< gradient clipping (0 = off)
   int threads = 2;                ///< intra-op threads (torch::set_num_threads)
   std::uint64_t seed = 1;         ///< seeds weights, pair generation and Gumbel noise
@@ -82,6 +87,7 @@ struct EpochStats {
   double loss = 0.0, loss_global = 0.0, loss_neighbor = 0.0, loss_spatial = 0.0;
   double loss_pose = 0.0;  ///< weighted L_p (0 without pose labels); included in `loss`
   double val_loss = 0.0, val_mie_r = 0.0, val_mie_t = 0.0, val_recall = 0.0, val_mean_alpha = 0.0;
+  double val_inlier_ratio = 0.0;  ///< ValidationScores::inlier_ratio
   double pairs_per_s = 0.0;
   double wall_s = 0.0;  ///< cumulated training wall time at the end of this epoch
   /// Data-parallel runs: mean time per step spent in the collectives (gradient all-reduce,
@@ -93,6 +99,10 @@ struct EpochStats {
 /// Validation scores of a model on a list of pairs.
 struct ValidationScores {
   double loss = 0.0, mie_r = 0.0, mie_t = 0.0, recall = 0.0, mean_alpha = 0.0;
+  /// Mean over the pairs of the share of source points whose most probable target point (the
+  /// network's last iteration) lies within TrainConfig::inlier_radius of where the true pose puts
+  /// the source point: the correspondence inlier ratio, the usual measure of a matcher's features.
+  double inlier_ratio = 0.0;
 };
 
 /// Trains a model into `out_dir`:
