@@ -162,6 +162,11 @@ TEST(Nmm, RefinedMatchingMapWithoutGradientEqualsTheGraph) {
         << "NMM " << use_nmm << ", max difference "
         << (kernel.to(torch::kFloat64) - reference).abs().max().item<double>();
   }
+  // The kernels read M′ at the neighbour indices: one outside the cloud is refused, not read.
+  torch::NoGradGuard ng;
+  auto bad = tgt_idx.clone();
+  bad[1][3][2] = M;
+  EXPECT_THROW(obmnet::refinedMatchingMap(fp, fq, src_idx, bad, params), ContractError);
 }
 
 TEST(InlierEvaluator, InferenceWithoutGradientEqualsTheGraph) {

@@ -254,6 +254,11 @@ torch::Tensor matchingMapCpu(const torch::Tensor& feat_p, const torch::Tensor& f
   const auto si = src_idx.to(torch::kLong).contiguous();
   const auto ti = tgt_idx.to(torch::kLong).contiguous();
   const int64_t ks = si.size(2), kt = ti.size(2);
+  // The row loops read M′ at these indices unchecked: one range check here, O((N + M)·k).
+  OBM_ASSERT(ks >= 1 && kt >= 1 && si.min().item<int64_t>() >= 0 && si.max().item<int64_t>() < N &&
+                 ti.min().item<int64_t>() >= 0 && ti.max().item<int64_t>() < M,
+             "matchingMapCpu: neighbour indices must be in [0, N) for the source and [0, M) for "
+             "the target");
   const int64_t* sip = si.data_ptr<int64_t>();
   const int64_t* tip = ti.data_ptr<int64_t>();
   const float gamma = static_cast<float>(params.gamma);
