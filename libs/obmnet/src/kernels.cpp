@@ -129,6 +129,18 @@ OBM_VECTOR_CLONES void neighbourhoodSums(const float* Mp, const int64_t* nbr, in
   }
 }
 
+/// RA = Σ_a X[a, ·] over the k rows `nbr` of X (m columns each): neighbourhoodSums without the
+/// squares.
+OBM_VECTOR_CLONES void neighbourhoodSum(const float* X, const int64_t* nbr, int64_t k, int64_t m,
+                                        float* RA) {
+  const float* first = X + nbr[0] * m;
+  for (int64_t j = 0; j < m; ++j) RA[j] = first[j];
+  for (int64_t a = 1; a < k; ++a) {
+    const float* row = X + nbr[a] * m;
+    for (int64_t j = 0; j < m; ++j) RA[j] += row[j];
+  }
+}
+
 /// Rows of a block are processed together so that the gathers over the target neighbours move
 /// whole vectors: the block's sums are kept transposed, entry (j, r) at j·kBlock + r.
 constexpr int64_t kBlock = 16;
@@ -215,6 +227,32 @@ torch::Tensor knnSortedCpu(const torch::Tensor& query, const torch::Tensor& ref,
       }
       int64_t* idx = op + row * k;
       for (int64_t s = 0; s < k; ++s) idx[s] = slot[static_cast<std::size_t>(s)];
+    }
+  });
+  return out;
+}
+
+torch::Tensor neighbourRowSumsCpu(const torch::Tensor& X, const torch::Tensor& idx,
+                                  bool with_squares) {
+  OBM_ASSERT(X.dim() == 2 && idx.dim() == 2 && X.is_cpu() && X.scalar_type() == torch::kFloat32,
+             "neighbourRowSumsCpu expects a float CPU table R×C and indices N×k");
+  const auto Xc = X.contiguous();
+  const auto I = idx.to(torch::kLong).contiguous();
+  const int64_t rows = I.size(0), k = I.size(1), C = Xc.size(1);
+  OBM_ASSERT(k >= 1 && I.min().item<int64_t>() >= 0 && I.max().item<int64_t>() < Xc.size(0),
+             "neighbourRowSumsCpu: indices must be rows of the table");
+  const int64_t width = with_squares ? 2 * C : C;
+  auto out = torch::empty({rows, width}, Xc.options());
+  const float* x = Xc.data_ptr<float>();
+  const int64_t* id = I.data_ptr<int64_t>();
+  float* o = out.data_ptr<float>();
+  at::parallel_for(0, rows, 16, [&](int64_t begin, int64_t end) {
+    for (int64_t i = begin; i < end; ++i) {
+      float* dst = o + i * width;
+      if (with_squares)
+        rows::neighbourhoodSums(x, id + i * k, k, C, dst, dst + C);
+      else
+        rows::neighbourhoodSum(x, id + i * k, k, C, dst);
     }
   });
   return out;

@@ -13,6 +13,12 @@ namespace obm::obmnet::detail {
 /// in float32.
 torch::Tensor knnSortedCpu(const torch::Tensor& query, const torch::Tensor& ref, int64_t k);
 
+/// out[i, ·] = Σ_a X[idx(i, a), ·] for a float CPU table X (R×C) and indices idx (N×k): each
+/// output row written once from its k rows. With `with_squares` the sums of X² follow in the same
+/// row (N × 2C). NMM's neighbourhood sums when no gradient is needed (nmm.cpp).
+torch::Tensor neighbourRowSumsCpu(const torch::Tensor& X, const torch::Tensor& idx,
+                                  bool with_squares);
+
 /// What the matching step refines M with.
 struct MatchKernelParams {
   bool use_nmm = true;  ///< neighbour map matching (step 5); else M^r = row-softmax(−M)

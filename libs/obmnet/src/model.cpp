@@ -89,6 +89,7 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
   // The source's neighbourhoods do not change either: the iterations move it rigidly, which
   // keeps every distance within it (the features, which see coordinates, are recomputed).
   const auto src_knn1 = obmnet::knnIndices(src, src, config_.k1);
+  const auto src_knn2 = nearestOf(src_knn1, src, config_.k2);
   // The target's per-point shares of the sampler's first layer and of the fusion (W_Φ·Φ_q) do
   // not change over the iterations either.
   torch::Tensor phi_q_logits, phi_q_fusion;
@@ -133,8 +134,6 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
     torch::Tensor log_match, match;  // log M^r is kept for L_s
     const bool fused_match = !compute_loss && !torch::GradMode::is_enabled();
     if (fused_match) {
-      const auto src_knn2 =
-          config_.use_nmm ? nearestOf(src_knn1, src_cur, config_.k2) : torch::Tensor();
       match = obmnet::refinedMatchingMap(feat_p, feat_q, src_knn2, tgt_knn2, nmm_params,
                                          config_.use_nmm);
     } else {
@@ -142,7 +141,6 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
       const auto M = (obmnet::pairwiseSquaredDistance(feat_p, feat_q) + 1e-12).sqrt();
       // Step 5: neighbour map matching → M^r (log kept for L_s).
       if (config_.use_nmm) {
-        const auto src_knn2 = nearestOf(src_knn1, src_cur, config_.k2);
         // S is evaluated without gradient unless `nmm_score_grad`: the NMM sums create k_s + k_t
         // full N×M tensors per iteration that back-propagation would have to keep (≈ 4 GB and half
         // of the step time for a batch of 16 × 1024 points on a CPU). M still receives the

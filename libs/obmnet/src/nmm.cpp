@@ -1,7 +1,5 @@
 #include "obm/obmnet/nmm.hpp"
 
-#include <ATen/Parallel.h>
-
 #include <vector>
 
 #include "kernels.hpp"
@@ -19,56 +17,6 @@ void checkShapes(const torch::Tensor& M, const torch::Tensor& src_idx,
              "NMM: src_idx must be B×N×k for a B×N×M matching map");
   OBM_ASSERT(tgt_idx.size(0) == M.size(0) && tgt_idx.size(1) == M.size(2),
              "NMM: tgt_idx must be B×M×k for a B×N×M matching map");
-}
-
-/// out[i, ·] = Σ_a X[idx(i, a), ·] for a 2-D float X (R×C) and idx (N×k): each output row
-/// written once from k rows of X, the rows shared out over the intra-op threads. No autograd.
-torch::Tensor neighbourRowSumKernel(const torch::Tensor& X, const torch::Tensor& idx) {
-  const auto Xc = X.contiguous();
-  const auto I = idx.to(torch::kLong).contiguous();
-  const int64_t rows = I.size(0), k = I.size(1), C = Xc.size(1);
-  auto out = torch::empty({rows, C}, Xc.options());
-  const float* x = Xc.data_ptr<float>();
-  const int64_t* id = I.data_ptr<int64_t>();
-  float* o = out.data_ptr<float>();
-  at::parallel_for(0, rows, 16, [&](int64_t begin, int64_t end) {
-    for (int64_t i = begin; i < end; ++i) {
-      float* dst = o + i * C;
-      const float* first = x + id[i * k] * C;
-      for (int64_t c = 0; c < C; ++c) dst[c] = first[c];
-      for (int64_t a = 1; a < k; ++a) {
-        const float* row = x + id[i * k + a] * C;
-        for (int64_t c = 0; c < C; ++c) dst[c] += row[c];
-      }
-    }
-  });
-  return out;
-}
-
-/// [Σ_a X[idx(i,a), ·] | Σ_a X[idx(i,a), ·]²] for a 2-D float X (N×C) and idx (N×k), as one
-/// N × 2C table: the row sums of X and of its square in one pass over the picked rows. No autograd.
-torch::Tensor neighbourRowSumsWithSquaresKernel(const torch::Tensor& X, const torch::Tensor& idx) {
-  const auto Xc = X.contiguous();
-  const auto I = idx.to(torch::kLong).contiguous();
-  const int64_t rows = I.size(0), k = I.size(1), C = Xc.size(1);
-  auto out = torch::zeros({rows, 2 * C}, Xc.options());
-  const float* x = Xc.data_ptr<float>();
-  const int64_t* id = I.data_ptr<int64_t>();
-  float* o = out.data_ptr<float>();
-  at::parallel_for(0, rows, 16, [&](int64_t begin, int64_t end) {
-    for (int64_t i = begin; i < end; ++i) {
-      float* sum = o + i * 2 * C;
-      float* sum_sq = sum + C;
-      for (int64_t a = 0; a < k; ++a) {
-        const float* row = x + id[i * k + a] * C;
-        for (int64_t c = 0; c < C; ++c) {
-          sum[c] += row[c];
-          sum_sq[c] += row[c] * row[c];
-        }
-      }
-    }
-  });
-  return out;
 }
 
 /// Σ_a X[idx(i, a), ·] with autograd (index_select of whole rows, accumulated).
@@ -113,10 +61,13 @@ torch::Tensor nmmScore(const torch::Tensor& M, const torch::Tensor& src_idx,
     // R_A[i,·] = Σ_a M′[src_idx(i,a), ·] and R_D of M′² beside it (N × 2M), transposed so that
     // A[i,j] = Σ_b R_A[i, tgt_idx(j,b)] is again a sum of whole rows: Aᵀ[j,·] = Σ_b
     // R_Aᵀ[tgt_idx(j,b), ·].
-    const auto R = fast ? neighbourRowSumsWithSquaresKernel(Mp[b], src_idx[b])
+    const auto R = fast ? detail::neighbourRowSumsCpu(Mp[b], src_idx[b], /*with_squares=*/true)
                         : neighbourRowSum(torch::cat({Mp[b], Mp2[b]}, 1), src_idx[b]);
     const auto Rt = R.t().contiguous();  // 2M × N: rows of R_Aᵀ, then of R_Dᵀ
-    const auto sum = fast ? neighbourRowSumKernel : neighbourRowSum;
+    const auto sum = [fast](const torch::Tensor& X, const torch::Tensor& idx) {
+      return fast ? detail::neighbourRowSumsCpu(X, idx, /*with_squares=*/false)
+                  : neighbourRowSum(X, idx);
+    };
     As.push_back(sum(Rt.narrow(0, 0, Mt), tgt_idx[b]));   // Aᵀ, M × N
     ds.push_back(sum(Rt.narrow(0, Mt, Mt), tgt_idx[b]));  // dᵀ
   }
