@@ -191,6 +191,10 @@ int main(int argc, char** argv) {
           "(radius %g)  mean alpha %.4g  loss %.5f\n",
           v.mie_r, v.mie_t, v.recall, v.inlier_ratio, cfg.inlier_radius,
           v.mean_alpha, v.loss);
+      if (cfg.match_loss_weight > 0.0)
+        std::printf("self-training teacher on these pairs: labels %.4f of the source points, "
+                    "%.4f of them correct (radius %g), its pose MIE(R) %.4f deg\n",
+                    v.teacher_labelled, v.teacher_precision, cfg.inlier_radius, v.teacher_mie_r);
       return 0;
     }
     if (measure > 0) {

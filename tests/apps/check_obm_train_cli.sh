@@ -53,6 +53,22 @@ grep -Eq '^validation: MIE\(R\) [0-9.]+ deg .*inlier ratio [0-9.]+' log3.txt || 
 [[ ! -e run_val/train_log.csv ]] || fail "--validate must not train"
 head -1 run/train_log.csv | grep -q 'val_inlier_ratio' || fail "train_log.csv: no val_inlier_ratio column"
 
+# Self-training (docs/training.md): --validate also scores the teacher's labels; the log has the
+# correspondence term; a weight without the teacher's settings is refused, naming the key.
+"$tool" -c "$root/config/obmnet/train_objects_selftrain.yaml" -o run_st --data "$work/meshes: all" \
+  --epochs 1 --threads 1 --batch-size 2 "${small[@]}" --set model.k1=8 > log4.txt 2>&1 || {
+  cat log4.txt; fail "self-training run"; }
+head -1 run_st/train_log.csv | grep -q 'loss_match,teacher_labelled' || fail "train_log.csv: no loss_match column"
+"$tool" -c run_st/config.yaml -o run_st_val --init run_st/best.pt --validate > log5.txt 2>&1 || {
+  cat log5.txt; fail "--validate (self-training)"; }
+grep -Eq '^self-training teacher on these pairs: labels [0-9.]+ .* [0-9.]+ of them correct' log5.txt || {
+  cat log5.txt; fail "--validate must score the teacher's labels"; }
+set +e
+"$tool" -c "$root/config/obmnet/train_objects.yaml" -o run_bad --set train.match_loss_weight=1 > bad0.txt 2>&1
+rc=$?
+set -e
+[[ $rc -ne 0 ]] && grep -q 'match_loss_weight' bad0.txt || { cat bad0.txt; fail "match_loss_weight without a teacher must fail naming the key"; }
+
 # Bad input: a misspelt key names the file and the key; a missing config is a clear error.
 set +e
 "$tool" -c $cfg -o run2 --set train.lr_stepz=3 > bad1.txt 2>&1

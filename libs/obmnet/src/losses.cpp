@@ -104,4 +104,16 @@ torch::Tensor poseLabelLoss(const torch::Tensor& R, const torch::Tensor& t,
   return (r.pow(2).sum(1) + 1e-12).sqrt().mean();
 }
 
+torch::Tensor correspondenceLoss(const torch::Tensor& log_match, const torch::Tensor& labels) {
+  OBM_ASSERT(log_match.dim() == 3 && labels.dim() == 2 && labels.size(0) == log_match.size(0) &&
+                 labels.size(1) == log_match.size(1) && labels.scalar_type() == torch::kInt64,
+             "correspondenceLoss expects log M^r B×N×M and int64 labels B×N");
+  OBM_ASSERT(labels.numel() == 0 || labels.max().item<int64_t>() < log_match.size(2),
+             "correspondenceLoss: a label is outside the target");
+  const auto valid = labels >= 0;
+  const auto picked = log_match.gather(2, labels.clamp_min(0).unsqueeze(2)).squeeze(2);  // B×N
+  const auto n = valid.sum().clamp_min(1).to(log_match.scalar_type());
+  return -(picked * valid.to(log_match.scalar_type())).sum() / n;
+}
+
 }  // namespace obm::obmnet

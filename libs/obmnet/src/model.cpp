@@ -63,7 +63,8 @@ torch::Tensor nearestOf(const torch::Tensor& sorted_knn, const torch::Tensor& pt
 
 ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& tgt,
                                  bool compute_loss, const torch::Tensor& tgt_surface,
-                                 const torch::Tensor& tgt_normals) {
+                                 const torch::Tensor& tgt_normals,
+                                 const torch::Tensor& match_labels) {
   OBM_ASSERT(src.dim() == 3 && src.size(1) == 3 && tgt.dim() == 3 && tgt.size(1) == 3 &&
                  src.size(0) == tgt.size(0),
              "ObmNet expects src B×3×N and tgt B×3×M");
@@ -99,7 +100,8 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
   }
 
   torch::Tensor loss_g = torch::zeros({}, opts), loss_n = torch::zeros({}, opts),
-                loss_s = torch::zeros({}, opts);
+                loss_s = torch::zeros({}, opts), loss_c = torch::zeros({}, opts);
+  const bool labelled = compute_loss && match_labels.defined();
 
   for (int it = 0; it < config_.n_iters; ++it) {
     // The source as moved by the iterations so far. Each iteration learns on its own input:
@@ -181,6 +183,8 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
       loss_n = loss_n + obmnet::neighborhoodLoss(src_cur, tgt, pseudo, T_step, kp, config_.k1,
                                                  config_.neighbor_loss_nearest);
       loss_s = loss_s + obmnet::spatialConsistencyLoss(log_match, kp);
+      // The labels index the source's own points, which every iteration keeps in order.
+      if (labelled) loss_c = loss_c + obmnet::correspondenceLoss(log_match, match_labels);
     }
     if (it + 1 == config_.n_iters) {
       out.alpha = alpha;
@@ -199,6 +203,7 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
     out.loss_neighbor = loss_n;
     out.loss_spatial = loss_s;
     out.loss = loss_g + loss_n + loss_s;  // unweighted sum, as in RIENet
+    if (labelled) out.loss_match = loss_c;
   }
   return out;
 }

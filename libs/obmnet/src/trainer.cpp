@@ -21,6 +21,7 @@
 #include "obm/obmnet/losses.hpp"
 #include "obm/obmnet/model.hpp"
 #include "obm/obmnet/model_io.hpp"
+#include "obm/obmnet/teacher.hpp"
 #include "allocator.hpp"
 
 namespace obm::obmnet {
@@ -34,7 +35,7 @@ TrainConfig TrainConfig::load(const ConfigNode& root) {
                "val_pairs", "lr", "weight_decay", "lr_steps", "lr_gamma", "normalize_radius",
                "recall_deg", "recall_trans", "max_grad_norm", "threads", "seed", "max_hours",
                "curriculum_epochs", "curriculum_start", "device", "pose_loss_weight",
-               "loss_weights", "select_on", "inlier_radius"});
+               "loss_weights", "select_on", "inlier_radius", "match_loss_weight", "teacher"});
   c.protocol = PairProtocol::load(t.child("pairs"));
   c.val_protocol =
       t.has("val_pairs_protocol") ? PairProtocol::load(t.child("val_pairs_protocol")) : c.protocol;
@@ -58,6 +59,30 @@ TrainConfig TrainConfig::load(const ConfigNode& root) {
   t.get("curriculum_start", c.curriculum_start);
   t.get("device", c.device);
   t.get("pose_loss_weight", c.pose_loss_weight);
+  t.get("match_loss_weight", c.match_loss_weight);
+  if (!(c.match_loss_weight >= 0.0))
+    throw ConfigError(t.where("match_loss_weight") + ": must be >= 0");
+  if (t.has("teacher")) {
+    const ConfigNode th = t.child("teacher");
+    th.checkKeys({"icp_iterations", "initial_max_distance", "max_distance", "match_radius",
+                  "from_identity"});
+    th.get("initial_max_distance", c.teacher_initial_max_distance);
+    th.get("icp_iterations", c.teacher_icp_iterations);
+    th.get("max_distance", c.teacher_max_distance);
+    th.get("match_radius", c.teacher_match_radius);
+    th.get("from_identity", c.teacher_from_identity);
+    if (c.teacher_icp_iterations < 0)
+      throw ConfigError(th.where("icp_iterations") + ": must be >= 0");
+    if (!(c.teacher_max_distance > 0))
+      throw ConfigError(th.where("max_distance") + ": must be > 0");
+    if (!(c.teacher_initial_max_distance >= c.teacher_max_distance))
+      throw ConfigError(th.where("initial_max_distance") + ": must be >= max_distance");
+    if (!(c.teacher_match_radius > 0))
+      throw ConfigError(th.where("match_radius") + ": must be > 0");
+  } else if (c.match_loss_weight > 0.0) {
+    throw ConfigError(t.where("match_loss_weight") +
+                      ": > 0 needs the teacher's settings (a `train.teacher:` map)");
+  }
   if (t.has("loss_weights")) {
     std::vector<double> w;
     t.get("loss_weights", w);
@@ -111,18 +136,29 @@ namespace {
 /// Share of the source points whose matched target point (`match`, one target index per source
 /// point, in the pair's point order) lies within `radius` of the source point moved by the true
 /// pose T_target_source.
-double inlierRatio(const RegistrationPair& pair, const torch::Tensor& match, double radius) {
+/// With `mask` (one int64 per source point), only the points whose mask is >= 0 are scored, and
+/// the *count* of inliers among them is returned instead of the share.
+double inlierRatio(const RegistrationPair& pair, const torch::Tensor& match, double radius,
+                   const torch::Tensor* mask = nullptr) {
   const auto m = match.to(torch::kCPU, torch::kLong).contiguous();
   const auto* idx = m.data_ptr<int64_t>();
   const auto n = static_cast<std::size_t>(m.numel());
   OBM_ASSERT(n == pair.source.size(), "inlierRatio: one match per source point expected");
+  torch::Tensor mk;
+  if (mask) {
+    mk = mask->to(torch::kCPU, torch::kLong).contiguous();
+    OBM_ASSERT(static_cast<std::size_t>(mk.numel()) == n, "inlierRatio: one mask entry per point");
+  }
+  const int64_t* use = mask ? mk.data_ptr<int64_t>() : nullptr;
   std::size_t inliers = 0;
   for (std::size_t i = 0; i < n; ++i) {
+    if (use && use[i] < 0) continue;
     const auto q = static_cast<std::size_t>(idx[i]);
     OBM_ASSERT(q < pair.target.size(), "inlierRatio: match index outside the target");
     const Eigen::Vector3d moved = pair.T_target_source * pair.source.points[i].cast<double>();
     if ((moved - pair.target.points[q].cast<double>()).norm() < radius) ++inliers;
   }
+  if (mask) return static_cast<double>(inliers);
   return n == 0 ? 0.0 : static_cast<double>(inliers) / static_cast<double>(n);
 }
 
@@ -214,7 +250,7 @@ Isometry3d toIsometry(const torch::Tensor& R, const torch::Tensor& t, int64_t i)
 std::string csvHeader() {
   return "epoch,lr,loss,loss_global,loss_neighbor,loss_spatial,val_loss,val_mie_r_deg,val_mie_t,"
          "val_recall,val_mean_alpha,pairs_per_s,wall_s,best,comm_ms_per_step,loss_pose,"
-         "val_inlier_ratio\n";
+         "val_inlier_ratio,loss_match,teacher_labelled\n";
 }
 
 std::string csvRow(const EpochStats& s) {
@@ -223,7 +259,7 @@ std::string csvRow(const EpochStats& s) {
      << ',' << s.loss_neighbor << ',' << s.loss_spatial << ',' << s.val_loss << ',' << s.val_mie_r
      << ',' << s.val_mie_t << ',' << s.val_recall << ',' << s.val_mean_alpha << ',' << s.pairs_per_s
      << ',' << s.wall_s << ',' << (s.best ? 1 : 0) << ',' << s.comm_ms_per_step << ',' << s.loss_pose << ','
-     << s.val_inlier_ratio << '\n';
+     << s.val_inlier_ratio << ',' << s.loss_match << ',' << s.teacher_labelled << '\n';
   return os.str();
 }
 
@@ -379,7 +415,16 @@ struct Trainer::Impl {
     return w[0] * o.loss_global + w[1] * o.loss_neighbor + w[2] * o.loss_spatial;
   }
 
-  std::array<double, 5> step(const Batch& b, int global_pairs) {
+  /// Self-training labels of a batch (teacher.hpp): the network's estimate in inference mode,
+  /// refined by ICP. Returns the teacher's transforms; `labels` B×N.
+  RigidTransforms teach(const Batch& b, torch::Tensor& labels) {
+    torch::NoGradGuard ng;
+    model->eval();
+    const auto o = model->forward(b.src, b.tgt);
+    return teacherLabels(b.src, b.tgt, RigidTransforms{o.R, o.t}, teacherParams(), labels);
+  }
+
+  std::array<double, 7> step(const Batch& b, int global_pairs) {
     const int local = static_cast<int>(b.pairs.size());
     // Data-parallel: rank 0's batch-normalisation statistics for every copy (DDP's
     // broadcast_buffers), so that all ranks run the same model.
@@ -390,21 +435,38 @@ struct Trainer::Impl {
       broadcastTensors(*group, buffers, 0);
       comm_s += tc.seconds();
     }
+    torch::Tensor labels;
+    RigidTransforms T_teacher;
+    const bool teaching = cfg.match_loss_weight > 0.0;
+    if (teaching) T_teacher = teach(b, labels);
     model->train();
     optim->zero_grad();
-    const auto o = model->forward(b.src, b.tgt, /*compute_loss=*/true, b.tgt_surface, b.tgt_normals);
-    torch::Tensor total = objective(o), pose = torch::zeros({}, o.loss.options());
+    const auto o = model->forward(b.src, b.tgt, /*compute_loss=*/true, b.tgt_surface, b.tgt_normals,
+                                  labels);
+    torch::Tensor total = objective(o), pose = torch::zeros({}, o.loss.options()),
+                  match = torch::zeros({}, o.loss.options());
     if (cfg.pose_loss_weight > 0.0) {
-      if (!b.R_label.defined())
+      if (b.R_label.defined())
+        pose = cfg.pose_loss_weight * poseLabelLoss(o.R, o.t, b.R_label, b.t_label, b.src);
+      else if (teaching)
+        pose = cfg.pose_loss_weight * poseLabelLoss(o.R, o.t, T_teacher.R, T_teacher.t, b.src);
+      else
         throw ConfigError("train.pose_loss_weight > 0, but the training pairs carry no pose label "
                           "(set data.pose_labels to the mapping app's trajectory of each training "
-                          "sequence; ground truth is never a label)");
-      pose = cfg.pose_loss_weight * poseLabelLoss(o.R, o.t, b.R_label, b.t_label, b.src);
+                          "sequence, or self-train with train.teacher; ground truth is never a "
+                          "label)");
       total = total + pose;
     }
-    std::array<double, 5> l{total.item<double>(), o.loss_global.item<double>(),
+    if (teaching) {
+      match = cfg.match_loss_weight * o.loss_match;
+      total = total + match;
+    }
+    const double labelled =
+        teaching ? (labels >= 0).to(torch::kFloat64).mean().item<double>() : 0.0;
+    std::array<double, 7> l{total.item<double>(),         o.loss_global.item<double>(),
                             o.loss_neighbor.item<double>(), o.loss_spatial.item<double>(),
-                            pose.item<double>()};
+                            pose.item<double>(),            match.item<double>(),
+                            labelled};
     bool finite = std::isfinite(l[0]);
     if (finite) {
       total.backward();
@@ -432,7 +494,7 @@ struct Trainer::Impl {
                             (agg[1] > 0 ? "non-finite loss" : "non-finite gradient")
                                 << "; batch skipped (" << skipped << " so far)");
       optim->zero_grad();
-      if (agg[1] > 0) return {0.0, 0.0, 0.0, 0.0, 0.0};
+      if (agg[1] > 0) return {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
       return l;
     }
     if (group) {
@@ -446,11 +508,23 @@ struct Trainer::Impl {
     return l;
   }
 
+  /// The teacher's parameters of the configuration.
+  TeacherParams teacherParams() const {
+    TeacherParams p;
+    p.icp_iterations = cfg.teacher_icp_iterations;
+    p.initial_max_distance = cfg.teacher_initial_max_distance;
+    p.max_distance = cfg.teacher_max_distance;
+    p.match_radius = cfg.teacher_match_radius;
+    p.from_identity = cfg.teacher_from_identity;
+    return p;
+  }
+
   ValidationScores validate() {
     torch::NoGradGuard ng;
     model->eval();
     ValidationScores s;
     int hits = 0;
+    int64_t labelled = 0, correct_labels = 0;
     // Data-parallel: each rank scores the pairs i with i mod world = rank; the sums are reduced.
     std::vector<RegistrationPair> mine;
     for (std::size_t i = static_cast<std::size_t>(rank()); i < val_pairs.size();
@@ -476,12 +550,34 @@ struct Trainer::Impl {
         s.inlier_ratio += inlierRatio(b.pairs[j], o.match_index[static_cast<int64_t>(j)].select(1, 0),
                                       cfg.inlier_radius);
       }
+      if (cfg.match_loss_weight > 0.0) {
+        // What self-training would hand the network on these pairs, scored against ground truth.
+        torch::Tensor labels;
+        const auto T = teacherLabels(b.src, b.tgt, RigidTransforms{o.R, o.t}, teacherParams(), labels);
+        for (std::size_t j = 0; j < b.pairs.size(); ++j) {
+          const auto lj = labels[static_cast<int64_t>(j)];
+          const auto n = (lj >= 0).sum().item<int64_t>();
+          labelled += n;
+          // inlierRatio over every point counts the labelled ones that are right (−1 never is,
+          // once mapped to an index whose distance is then ignored).
+          const auto right = inlierRatio(b.pairs[j], lj.clamp_min(0), cfg.inlier_radius,
+                                         /*mask=*/&lj);
+          correct_labels += static_cast<int64_t>(std::lround(right));
+          const Isometry3d Tt = b.norms[j].denormalize(toIsometry(T.R, T.t, static_cast<int64_t>(j)));
+          s.teacher_mie_r +=
+              rotationAngle(b.pairs[j].T_target_source.linear().transpose() * Tt.linear()) * kRadToDeg;
+        }
+      }
     }
     if (group) {
       std::vector<double> sums{s.loss,       s.mie_r, s.mie_t, s.mean_alpha, static_cast<double>(hits),
-                               s.inlier_ratio};
+                               s.inlier_ratio, static_cast<double>(labelled),
+                               static_cast<double>(correct_labels), s.teacher_mie_r};
       group->allReduceSum(sums);
       s.inlier_ratio = sums[5];
+      labelled = static_cast<int64_t>(std::llround(sums[6]));
+      correct_labels = static_cast<int64_t>(std::llround(sums[7]));
+      s.teacher_mie_r = sums[8];
       s.loss = sums[0];
       s.mie_r = sums[1];
       s.mie_t = sums[2];
@@ -495,6 +591,14 @@ struct Trainer::Impl {
     s.mean_alpha /= n;
     s.inlier_ratio /= n;
     s.recall = hits / n;
+    if (cfg.match_loss_weight > 0.0) {
+      std::size_t points = 0;
+      for (const auto& p : val_pairs) points += p.source.size();
+      s.teacher_labelled = points ? static_cast<double>(labelled) / static_cast<double>(points) : 0.0;
+      s.teacher_precision =
+          labelled ? static_cast<double>(correct_labels) / static_cast<double>(labelled) : 0.0;
+      s.teacher_mie_r /= n;
+    }
     return s;
   }
 
@@ -611,13 +715,21 @@ std::vector<OverfitRow> Trainer::overfitOneBatch(int steps, int every, int epoch
   };
   std::vector<OverfitRow> rows;
   for (int s = 0; s < steps; ++s) {
+    // Self-training relabels the batch with the current weights before every step, as step() does.
+    torch::Tensor labels;
+    RigidTransforms T_teacher;
+    const bool teaching = I.cfg.match_loss_weight > 0.0;
+    if (teaching) T_teacher = I.teach(b, labels);
     I.model->train();
     I.optim->zero_grad();
-    const auto o = I.model->forward(b.src, b.tgt, true, b.tgt_surface, b.tgt_normals);
-    // The training objective, pose-label term included (as in step()).
+    const auto o = I.model->forward(b.src, b.tgt, true, b.tgt_surface, b.tgt_normals, labels);
+    // The training objective, pose-label and correspondence terms included (as in step()).
     torch::Tensor total = I.objective(o);
     if (I.cfg.pose_loss_weight > 0.0 && b.R_label.defined())
       total = total + I.cfg.pose_loss_weight * poseLabelLoss(o.R, o.t, b.R_label, b.t_label, b.src);
+    else if (I.cfg.pose_loss_weight > 0.0 && teaching)
+      total = total + I.cfg.pose_loss_weight * poseLabelLoss(o.R, o.t, T_teacher.R, T_teacher.t, b.src);
+    if (teaching) total = total + I.cfg.match_loss_weight * o.loss_match;
     if (s % every == 0 || s + 1 == steps) rows.push_back(row(s, total.item<double>(), o, "train"));
     total.backward();
     I.optim->step();
@@ -803,6 +915,8 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
       s.loss_neighbor += l[2];
       s.loss_spatial += l[3];
       s.loss_pose += l[4];
+      s.loss_match += l[5];
+      s.teacher_labelled += l[6];
       std::ostringstream st;
       st << std::setprecision(4) << "loss " << s.loss / (k + 1) << "  " << std::setprecision(3)
          << (k + 1) * I.cfg.batch_size / et.seconds() << " pairs/s";
@@ -822,6 +936,8 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
     s.loss_neighbor /= steps;
     s.loss_spatial /= steps;
     s.loss_pose /= steps;
+    s.loss_match /= steps;
+    s.teacher_labelled /= steps;
     const auto v = I.validate();
     s.val_loss = v.loss;
     s.val_mie_r = v.mie_r;

@@ -64,4 +64,11 @@ torch::Tensor poseLabelLoss(const torch::Tensor& R, const torch::Tensor& t,
                             const torch::Tensor& R_label, const torch::Tensor& t_label,
                             const torch::Tensor& src);
 
+/// L_c, the correspondence term of self-training (not one of the paper's losses; teacher.hpp):
+/// −log M^r_{i, j*} for every source point i whose label j* (B×N int64, −1 = none) is set,
+/// averaged over the labelled points of the batch; 0 when none is. A cross-entropy that asks the
+/// matching map to put its mass on the labelled target point itself, which the global-alignment
+/// and neighbourhood terms only ask of the mass's centroid M^r·Q.
+torch::Tensor correspondenceLoss(const torch::Tensor& log_match, const torch::Tensor& labels);
+
 }  // namespace obm::obmnet

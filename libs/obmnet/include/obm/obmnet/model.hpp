@@ -34,6 +34,9 @@ struct ObmNetOutput {
   torch::Tensor match_index, match_prob;
   /// Scalars (summed over iterations, mean over the batch); defined only when compute_loss.
   torch::Tensor loss, loss_global, loss_neighbor, loss_spatial;
+  /// Correspondence term L_c summed over iterations (correspondenceLoss); defined only when
+  /// compute_loss and `match_labels` are given. Not part of `loss`.
+  torch::Tensor loss_match;
 };
 
 /// The OBMNet module. Train mode: soft Gumbel-softmax sampling and batch statistics; eval mode:
@@ -49,9 +52,12 @@ class ObmNetImpl : public torch::nn::Module {
   /// `compute_loss`. Throws ContractError on malformed shapes.
   /// With `tgt_surface` / `tgt_normals` (B×3×S, optional, training only) L_g is computed in its
   /// point-to-plane form against them (pointToPlaneAlignmentLoss) instead of against `tgt`.
+  /// With `match_labels` (B×N int64, −1 = none; training only, teacher.hpp) the output also
+  /// carries L_c of every iteration's matching map against them.
   ObmNetOutput forward(const torch::Tensor& src, const torch::Tensor& tgt,
                        bool compute_loss = false, const torch::Tensor& tgt_surface = {},
-                       const torch::Tensor& tgt_normals = {});
+                       const torch::Tensor& tgt_normals = {},
+                       const torch::Tensor& match_labels = {});
 
   const ObmNetConfig& config() const { return config_; }
 

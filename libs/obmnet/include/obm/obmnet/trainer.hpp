@@ -62,6 +62,19 @@ struct TrainConfig {
   /// trajectory of the training sequence, never ground truth). 0 = the paper's unsupervised
   /// L_g + L_n + L_s only. > 0 needs every training pair to carry a label.
   double pose_loss_weight = 0.0;
+  /// Self-training (not one of the paper's losses; docs/training.md): before every step the
+  /// network's own estimate of each training pair, refined by point-to-point ICP on the pair
+  /// (and, when `teacher_from_identity`, ICP from the identity, the better fit kept), labels every
+  /// source point with its nearest target point within `teacher_match_radius`; the weighted
+  /// correspondence term match_loss_weight·L_c is added to the loss (and, with
+  /// pose_loss_weight > 0 on unlabelled pairs, the teacher's pose is the L_p label). No ground
+  /// truth: the labels are the network's and ICP's. 0 = off. YAML `train.teacher:` map.
+  double match_loss_weight = 0.0;
+  int teacher_icp_iterations = 30;     ///< `teacher.icp_iterations`
+  double teacher_initial_max_distance = 0.5;  ///< `teacher.initial_max_distance`: first ICP gate
+  double teacher_max_distance = 0.1;   ///< `teacher.max_distance`: last ICP gate [normalised]
+  double teacher_match_radius = 0.05;  ///< `teacher.match_radius`: label radius [normalised]
+  bool teacher_from_identity = true;   ///< `teacher.from_identity`
   /// Weights of L_g, L_n, L_s in the training objective (YAML `loss_weights: [g, n, s]`); the
   /// paper's sum is {1, 1, 1}. A diagnostic of which term leads where (obm-train --overfit); the
   /// validation loss stays the unweighted sum.
@@ -86,6 +99,9 @@ struct EpochStats {
   double lr = 0.0;
   double loss = 0.0, loss_global = 0.0, loss_neighbor = 0.0, loss_spatial = 0.0;
   double loss_pose = 0.0;  ///< weighted L_p (0 without pose labels); included in `loss`
+  double loss_match = 0.0;  ///< weighted L_c of self-training (0 without); included in `loss`
+  /// Self-training: mean share of the source points the teacher labelled (0 without).
+  double teacher_labelled = 0.0;
   double val_loss = 0.0, val_mie_r = 0.0, val_mie_t = 0.0, val_recall = 0.0, val_mean_alpha = 0.0;
   double val_inlier_ratio = 0.0;  ///< ValidationScores::inlier_ratio
   double pairs_per_s = 0.0;
@@ -103,6 +119,11 @@ struct ValidationScores {
   /// network's last iteration) lies within TrainConfig::inlier_radius of where the true pose puts
   /// the source point: the correspondence inlier ratio, the usual measure of a matcher's features.
   double inlier_ratio = 0.0;
+  /// Self-training only (TrainConfig::match_loss_weight > 0), the teacher on the same pairs,
+  /// scored against ground truth (which it never sees): the mean share of source points it
+  /// labels, the share of those labels that are correct matches (within inlier_radius of the true
+  /// position), and the rotation error of its refined pose [deg]. 0 without self-training.
+  double teacher_labelled = 0.0, teacher_precision = 0.0, teacher_mie_r = 0.0;
 };
 
 /// Trains a model into `out_dir`:
