@@ -114,6 +114,17 @@ TEST(Losses, CorrespondenceLossIsTheCrossEntropyOfTheLabelledRows) {
   const auto labels = torch::tensor({1, -1, 3, 0, 2, -1}, torch::kInt64).view({2, 3});
   const double expected = -(lm[0][0][1] + lm[0][2][3] + lm[1][0][0] + lm[1][1][2]).item<double>() / 4;
   EXPECT_NEAR(correspondenceLoss(lm, labels).item<double>(), expected, 1e-12);
+  // Standardised (κ > 0): the same for logits scaled up or shifted, so it cannot be lowered by
+  // flattening the map; still the cross-entropy of the standardised row.
+  const auto z = torch::randn({2, 3, 4}, torch::kFloat64);
+  const double c1 = correspondenceLoss(z, labels, 3.0).item<double>();
+  EXPECT_NEAR(correspondenceLoss(5.0 * z + 2.0, labels, 3.0).item<double>(), c1, 1e-9);
+  EXPECT_GT(std::abs(correspondenceLoss(5.0 * z, labels).item<double>() -
+                     correspondenceLoss(z, labels).item<double>()),
+            1e-3)
+      << "precondition: the raw form does depend on the scale";
+  const auto zs = 3.0 * (z - z.mean(2, true)) / (z - z.mean(2, true)).pow(2).mean(2, true).sqrt();
+  EXPECT_NEAR(c1, correspondenceLoss(torch::log_softmax(zs, 2), labels).item<double>(), 1e-9);
   // No label: no term (and no division by zero).
   EXPECT_EQ(correspondenceLoss(lm, torch::full({2, 3}, -1, torch::kInt64)).item<double>(), 0.0);
   // A label outside the target is refused.

@@ -12,7 +12,7 @@ ObmNetConfig ObmNetConfig::load(const ConfigNode& node) {
   node.checkKeys({"emb_dims", "dim", "k1", "k2", "n_keypoints", "n_samples", "n_iters", "nn_margin",
                   "loss_margin", "beta", "tau_min", "use_overlap_sampling", "use_bias_prediction",
                   "use_nmm", "nmm_score_grad", "planar", "voxel_keypoints", "neighbor_loss_nearest", "shared_centroid",
-                  "ground_band", "soft_inference_sampling", "seed"});
+                  "ground_band", "soft_inference_sampling", "seed", "match_contrast"});
   node.get("emb_dims", c.emb_dims);
   node.get("dim", c.dim);
   node.get("k1", c.k1);
@@ -35,6 +35,7 @@ ObmNetConfig ObmNetConfig::load(const ConfigNode& node) {
   node.get("ground_band", c.ground_band);
   node.get("soft_inference_sampling", c.soft_inference_sampling);
   node.get("seed", c.seed);
+  node.get("match_contrast", c.match_contrast);
   c.validate(node.where());
   return c;
 }
@@ -52,6 +53,7 @@ void ObmNetConfig::validate(const std::string& where) const {
   if (n_samples < 1) fail("n_samples", "must be >= 1");
   if (n_iters < 1) fail("n_iters", "must be >= 1");
   if (!(loss_margin > 0.0)) fail("loss_margin", "must be > 0");
+  if (!(match_contrast >= 0.0)) fail("match_contrast", "must be >= 0");
   if (!(beta >= 0.0)) fail("beta", "must be >= 0");
   if (!(tau_min > 0.0)) fail("tau_min", "must be > 0");
   if (!(ground_band >= 0.0)) fail("ground_band", "must be >= 0");
@@ -89,6 +91,8 @@ std::string ObmNetConfig::toYaml() const {
   if (ground_band > 0.0) out << YAML::Key << "ground_band" << YAML::Value << ground_band;
   if (soft_inference_sampling)
     out << YAML::Key << "soft_inference_sampling" << YAML::Value << soft_inference_sampling;
+  if (match_contrast != ObmNetConfig{}.match_contrast)
+    out << YAML::Key << "match_contrast" << YAML::Value << match_contrast;
   out << YAML::Key << "seed" << YAML::Value << seed;
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";

@@ -104,16 +104,25 @@ torch::Tensor poseLabelLoss(const torch::Tensor& R, const torch::Tensor& t,
   return (r.pow(2).sum(1) + 1e-12).sqrt().mean();
 }
 
-torch::Tensor correspondenceLoss(const torch::Tensor& log_match, const torch::Tensor& labels) {
-  OBM_ASSERT(log_match.dim() == 3 && labels.dim() == 2 && labels.size(0) == log_match.size(0) &&
-                 labels.size(1) == log_match.size(1) && labels.scalar_type() == torch::kInt64,
-             "correspondenceLoss expects log M^r B×N×M and int64 labels B×N");
-  OBM_ASSERT(labels.numel() == 0 || labels.max().item<int64_t>() < log_match.size(2),
+torch::Tensor correspondenceLoss(const torch::Tensor& logits, const torch::Tensor& labels,
+                                 double contrast) {
+  OBM_ASSERT(logits.dim() == 3 && labels.dim() == 2 && labels.size(0) == logits.size(0) &&
+                 labels.size(1) == logits.size(1) && labels.scalar_type() == torch::kInt64,
+             "correspondenceLoss expects logits B×N×M and int64 labels B×N");
+  OBM_ASSERT(contrast >= 0.0, "correspondenceLoss: contrast must be >= 0");
+  OBM_ASSERT(labels.numel() == 0 || labels.max().item<int64_t>() < logits.size(2),
              "correspondenceLoss: a label is outside the target");
+  auto z = logits;
+  if (contrast > 0.0) {
+    const auto mean = z.mean(2, /*keepdim=*/true);
+    const auto sd = (z - mean).pow(2).mean(2, /*keepdim=*/true).add(1e-12).sqrt();
+    z = contrast * (z - mean) / sd;
+  }
+  const auto log_p = torch::log_softmax(z, 2);
   const auto valid = labels >= 0;
-  const auto picked = log_match.gather(2, labels.clamp_min(0).unsqueeze(2)).squeeze(2);  // B×N
-  const auto n = valid.sum().clamp_min(1).to(log_match.scalar_type());
-  return -(picked * valid.to(log_match.scalar_type())).sum() / n;
+  const auto picked = log_p.gather(2, labels.clamp_min(0).unsqueeze(2)).squeeze(2);  // B×N
+  const auto n = valid.sum().clamp_min(1).to(logits.scalar_type());
+  return -(picked * valid.to(logits.scalar_type())).sum() / n;
 }
 
 }  // namespace obm::obmnet

@@ -134,6 +134,7 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
     // Steps 4–5 → M^r (rows sum to 1). Without gradient and losses, as at inference, both run as
     // one row-wise computation (refinedMatchingMap): same quantities, no full-map temporaries.
     torch::Tensor log_match, match;  // log M^r is kept for L_s
+    torch::Tensor logits;            // and its logits for L_c
     const bool fused_match = !compute_loss && !torch::GradMode::is_enabled();
     if (fused_match) {
       match = obmnet::refinedMatchingMap(feat_p, feat_q, src_knn2, tgt_knn2, nmm_params,
@@ -154,10 +155,11 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
           torch::NoGradGuard ng;
           S = obmnet::nmmScore(M.detach(), src_knn2, tgt_knn2, nmm_params);
         }
-        log_match = torch::log_softmax(-(torch::exp(config_.nn_margin - S) * M), 2);
+        logits = -(torch::exp(config_.nn_margin - S) * M);
       } else {
-        log_match = torch::log_softmax(-M, 2);
+        logits = -M;
       }
+      log_match = torch::log_softmax(logits, 2);
       match = log_match.exp();
     }
     // Step 6: pseudo-target Q' = M^r·Q (one soft correspondence per source point).
@@ -184,7 +186,8 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
                                                  config_.neighbor_loss_nearest);
       loss_s = loss_s + obmnet::spatialConsistencyLoss(log_match, kp);
       // The labels index the source's own points, which every iteration keeps in order.
-      if (labelled) loss_c = loss_c + obmnet::correspondenceLoss(log_match, match_labels);
+      if (labelled)
+        loss_c = loss_c + obmnet::correspondenceLoss(logits, match_labels, config_.match_contrast);
     }
     if (it + 1 == config_.n_iters) {
       out.alpha = alpha;

@@ -34,6 +34,11 @@ struct ObmNetConfig {
   /// c of the Huber function ϑ in L_g, applied to squared distances [units²] (RIENet's
   /// `loss_margin`).
   double loss_margin = 0.01;
+  /// κ of the self-training term L_c (correspondenceLoss): its cross-entropy is taken over each
+  /// row of the matching logits standardised to zero mean and unit deviation, times κ, so that it
+  /// cannot be lowered by flattening the map (scaling the features down); 0 = over the map's own
+  /// logits. Training only; no effect at inference.
+  double match_contrast = 3.0;
   /// β of NMM: D_ij = (1/d_ij + β) / Σ_j (1/d_ij + β).
   double beta = 1e-6;
   /// Lower bound of the Gumbel-softmax temperature: τ = softplus(·) + tau_min.

@@ -65,10 +65,16 @@ torch::Tensor poseLabelLoss(const torch::Tensor& R, const torch::Tensor& t,
                             const torch::Tensor& src);
 
 /// L_c, the correspondence term of self-training (not one of the paper's losses; teacher.hpp):
-/// −log M^r_{i, j*} for every source point i whose label j* (B×N int64, −1 = none) is set,
-/// averaged over the labelled points of the batch; 0 when none is. A cross-entropy that asks the
-/// matching map to put its mass on the labelled target point itself, which the global-alignment
-/// and neighbourhood terms only ask of the mass's centroid M^r·Q.
-torch::Tensor correspondenceLoss(const torch::Tensor& log_match, const torch::Tensor& labels);
+/// −log softmax(ẑ)_{i, j*} for every source point i whose label j* (B×N int64, −1 = none) is set,
+/// averaged over the labelled points of the batch; 0 when none is. `logits` B×N×M are the
+/// matching map's logits (M^r = softmax(logits) by rows). With `contrast` κ > 0,
+/// ẑ = κ·(z − mean_j z)/std_j z per row: a cross-entropy invariant to the scale of the logits.
+/// On the raw logits (κ = 0) a row whose label is far from its mode is cheapest to fix by
+/// flattening every row (shrinking the features), which undoes the sharp matches L_s asks for and
+/// pulls the pseudo-targets to the centroids; on the standardised ones only the order and spacing
+/// of the logits count. A cross-entropy asks the row to put its mass on the labelled point
+/// itself, which the global-alignment and neighbourhood terms only ask of the centroid M^r·Q.
+torch::Tensor correspondenceLoss(const torch::Tensor& logits, const torch::Tensor& labels,
+                                 double contrast = 0.0);
 
 }  // namespace obm::obmnet
