@@ -23,7 +23,8 @@
 
 int main(int argc, char** argv) {
   CLI::App app{
-      "obm-train: unsupervised training of OBMNet (L_g + L_n + L_s, no ground truth).\n"
+      "obm-train: unsupervised training of OBMNet (L_g + L_n + L_s, optionally self-training\n"
+      "labels from its own ICP-refined estimate; no ground truth).\n"
       "Writes OUT/checkpoint.pt (resume point), OUT/best.pt (best on the validation split),\n"
       "OUT/train_log.csv and OUT/config.yaml. Ctrl-C stops after the current batch; the\n"
       "checkpoint keeps the last whole epoch and --resume continues from it.\n"
