@@ -49,4 +49,22 @@ inline std::vector<PointCloud> blobClouds(int count, int points, std::uint64_t s
   return clouds;
 }
 
+/// Two validation pairs whose target is `cloud` itself: one whose true pose is the identity and
+/// one whose true pose is 5 units away. Whatever a model estimates for them, a score against the
+/// truth that is all-right on the first is all-wrong on the second.
+inline std::vector<obmnet::RegistrationPair> sameCloudPairs(const PointCloud& cloud) {
+  obmnet::RegistrationPair same;
+  same.source = cloud;
+  same.target = cloud;
+  obmnet::RegistrationPair elsewhere = same;
+  elsewhere.T_target_source.translation() = Eigen::Vector3d(5.0, 0.0, 0.0);
+  return {same, elsewhere};
+}
+
+/// A sampler of `protocol` pairs of `cloud`.
+inline obmnet::PairSampler cloudPairSampler(const PointCloud& cloud,
+                                            const obmnet::PairProtocol& protocol) {
+  return [cloud, protocol](std::mt19937_64& rng, int) { return obmnet::makePair(cloud, protocol, rng); };
+}
+
 }  // namespace obm::test

@@ -145,7 +145,7 @@ TEST(TrainingRuns, SelfTrainingAddsTheCorrespondenceTermOfTheTeachersLabels) {
   tc.pairs_per_epoch = 8;
   tc.epochs = 1;
   tc.match_loss_weight = 2.0;
-  tc.teacher_match_radius = 0.2;
+  tc.teacher.match_radius = 0.2;
   const std::vector<PointCloud> clouds = test::blobClouds(3, 150, 40);
   const std::string dir = test::scratchDir("self_training");
   std::filesystem::remove_all(dir);
@@ -166,27 +166,20 @@ TEST(TrainingRuns, ValidationScoresTheTeachersLabelsAgainstTheTruePose) {
   // all those labels are right; under a true pose 5 units away none is. Whatever the weights.
   TrainConfig tc = test::smallTrainConfig();
   tc.match_loss_weight = 1.0;
-  tc.teacher_match_radius = 1e-3;
+  tc.teacher.match_radius = 1e-3;
   tc.inlier_radius = 1e-3;
   const std::vector<PointCloud> clouds = test::blobClouds(1, 150, 90);
-  RegistrationPair same;
-  same.source = clouds[0];
-  same.target = clouds[0];
-  RegistrationPair elsewhere = same;
-  elsewhere.T_target_source.translation() = Eigen::Vector3d(5.0, 0.0, 0.0);
-  const auto protocol = tc.protocol;
-  PairSampler sampler = [clouds, protocol](std::mt19937_64& rng, int) {
-    return makePair(clouds[0], protocol, rng);
-  };
+  const auto val = test::sameCloudPairs(clouds[0]);
+  const PairSampler sampler = test::cloudPairSampler(clouds[0], tc.protocol);
   const std::string dir = test::scratchDir("teacher_validation");
   std::filesystem::remove_all(dir);
-  Trainer t(tc, sampler, {same, elsewhere}, dir);
+  Trainer t(tc, sampler, val, dir);
   const auto v = t.validate();
   EXPECT_DOUBLE_EQ(v.teacher_labelled, 1.0);
   EXPECT_DOUBLE_EQ(v.teacher_precision, 0.5);
   EXPECT_LT(v.teacher_mie_r, 1e-2);
   // Without self-training the teacher is not scored.
   tc.match_loss_weight = 0.0;
-  Trainer off(tc, sampler, {same}, dir + "/off");
+  Trainer off(tc, sampler, {val[0]}, dir + "/off");
   EXPECT_EQ(off.validate().teacher_labelled, 0.0);
 }

@@ -95,19 +95,12 @@ TEST(TrainingRuns, ValidationInlierRatioScoresTheMatchesAgainstTheTruePose) {
   tc.model.use_bias_prediction = false;
   tc.inlier_radius = 1e-3;
   const std::vector<PointCloud> clouds = test::blobClouds(1, 150, 90);
-  RegistrationPair same;
-  same.source = clouds[0];
-  same.target = clouds[0];
-  RegistrationPair elsewhere = same;
-  elsewhere.T_target_source.translation() = Eigen::Vector3d(5.0, 0.0, 0.0);
-  const auto protocol = tc.protocol;
-  PairSampler sampler = [clouds, protocol](std::mt19937_64& rng, int) {
-    return makePair(clouds[0], protocol, rng);
-  };
+  const auto val = test::sameCloudPairs(clouds[0]);
+  const PairSampler sampler = test::cloudPairSampler(clouds[0], tc.protocol);
   const std::string dir = test::scratchDir("inlier_ratio");
   std::filesystem::remove_all(dir);
-  Trainer t(tc, sampler, {same, elsewhere}, dir);
+  Trainer t(tc, sampler, val, dir);
   EXPECT_DOUBLE_EQ(t.validate().inlier_ratio, 0.5);
-  Trainer only_same(tc, sampler, {same}, dir + "/same");
+  Trainer only_same(tc, sampler, {val[0]}, dir + "/same");
   EXPECT_DOUBLE_EQ(only_same.validate().inlier_ratio, 1.0);
 }

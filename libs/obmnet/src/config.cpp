@@ -98,4 +98,21 @@ std::string ObmNetConfig::toYaml() const {
   return std::string(out.c_str()) + "\n";
 }
 
+TeacherParams TeacherParams::load(const ConfigNode& node) {
+  node.checkKeys({"icp_iterations", "initial_max_distance", "max_distance", "match_radius",
+                  "from_identity"});
+  TeacherParams p;
+  node.get("icp_iterations", p.icp_iterations);
+  node.get("initial_max_distance", p.initial_max_distance);
+  node.get("max_distance", p.max_distance);
+  node.get("match_radius", p.match_radius);
+  node.get("from_identity", p.from_identity);
+  if (p.icp_iterations < 0) throw ConfigError(node.where("icp_iterations") + ": must be >= 0");
+  if (!(p.max_distance > 0)) throw ConfigError(node.where("max_distance") + ": must be > 0");
+  if (!(p.initial_max_distance >= p.max_distance))
+    throw ConfigError(node.where("initial_max_distance") + ": must be >= max_distance");
+  if (!(p.match_radius > 0)) throw ConfigError(node.where("match_radius") + ": must be > 0");
+  return p;
+}
+
 }  // namespace obm::obmnet

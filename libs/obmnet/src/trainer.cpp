@@ -63,22 +63,7 @@ TrainConfig TrainConfig::load(const ConfigNode& root) {
   if (!(c.match_loss_weight >= 0.0))
     throw ConfigError(t.where("match_loss_weight") + ": must be >= 0");
   if (t.has("teacher")) {
-    const ConfigNode th = t.child("teacher");
-    th.checkKeys({"icp_iterations", "initial_max_distance", "max_distance", "match_radius",
-                  "from_identity"});
-    th.get("initial_max_distance", c.teacher_initial_max_distance);
-    th.get("icp_iterations", c.teacher_icp_iterations);
-    th.get("max_distance", c.teacher_max_distance);
-    th.get("match_radius", c.teacher_match_radius);
-    th.get("from_identity", c.teacher_from_identity);
-    if (c.teacher_icp_iterations < 0)
-      throw ConfigError(th.where("icp_iterations") + ": must be >= 0");
-    if (!(c.teacher_max_distance > 0))
-      throw ConfigError(th.where("max_distance") + ": must be > 0");
-    if (!(c.teacher_initial_max_distance >= c.teacher_max_distance))
-      throw ConfigError(th.where("initial_max_distance") + ": must be >= max_distance");
-    if (!(c.teacher_match_radius > 0))
-      throw ConfigError(th.where("match_radius") + ": must be > 0");
+    c.teacher = TeacherParams::load(t.child("teacher"));
   } else if (c.match_loss_weight > 0.0) {
     throw ConfigError(t.where("match_loss_weight") +
                       ": > 0 needs the teacher's settings (a `train.teacher:` map)");
@@ -421,7 +406,7 @@ struct Trainer::Impl {
     torch::NoGradGuard ng;
     model->eval();
     const auto o = model->forward(b.src, b.tgt);
-    return teacherLabels(b.src, b.tgt, RigidTransforms{o.R, o.t}, teacherParams(), labels);
+    return teacherLabels(b.src, b.tgt, RigidTransforms{o.R, o.t}, cfg.teacher, labels);
   }
 
   std::array<double, 7> step(const Batch& b, int global_pairs) {
@@ -508,17 +493,6 @@ struct Trainer::Impl {
     return l;
   }
 
-  /// The teacher's parameters of the configuration.
-  TeacherParams teacherParams() const {
-    TeacherParams p;
-    p.icp_iterations = cfg.teacher_icp_iterations;
-    p.initial_max_distance = cfg.teacher_initial_max_distance;
-    p.max_distance = cfg.teacher_max_distance;
-    p.match_radius = cfg.teacher_match_radius;
-    p.from_identity = cfg.teacher_from_identity;
-    return p;
-  }
-
   ValidationScores validate() {
     torch::NoGradGuard ng;
     model->eval();
@@ -553,7 +527,7 @@ struct Trainer::Impl {
       if (cfg.match_loss_weight > 0.0) {
         // What self-training would hand the network on these pairs, scored against ground truth.
         torch::Tensor labels;
-        const auto T = teacherLabels(b.src, b.tgt, RigidTransforms{o.R, o.t}, teacherParams(), labels);
+        const auto T = teacherLabels(b.src, b.tgt, RigidTransforms{o.R, o.t}, cfg.teacher, labels);
         for (std::size_t j = 0; j < b.pairs.size(); ++j) {
           const auto lj = labels[static_cast<int64_t>(j)];
           const auto n = (lj >= 0).sum().item<int64_t>();

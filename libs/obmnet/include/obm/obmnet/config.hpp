@@ -97,4 +97,27 @@ struct ObmNetConfig {
   std::string toYaml() const;
 };
 
+/// Settings of the self-training teacher (teacher.hpp; YAML `train.teacher:` map,
+/// TrainConfig::teacher).
+struct TeacherParams {
+  /// Point-to-point ICP iterations from each start.
+  int icp_iterations = 30;
+  /// ICP keeps a correspondence only when the moved source point is within a gate of its nearest
+  /// target point; the gate shrinks linearly from `initial_max_distance` (first iteration: a
+  /// start tens of degrees off) to `max_distance` (last) [normalised units of the pair].
+  double initial_max_distance = 0.5;
+  double max_distance = 0.1;
+  /// A source point's label is its nearest target point under the refined pose when that point is
+  /// within this distance, else none (−1): points outside the overlap, and most points of a pair
+  /// the teacher got wrong, carry no label [normalised units].
+  double match_radius = 0.05;
+  /// Also refine from the identity and keep, per pair, the start whose result has the higher
+  /// fitness (share of source points within match_radius).
+  bool from_identity = true;
+
+  /// Reads the keys of `node` (all optional; unknown keys are rejected) and validates the values;
+  /// throws ConfigError naming the file and key.
+  static TeacherParams load(const ConfigNode& node);
+};
+
 }  // namespace obm::obmnet

@@ -4,31 +4,13 @@
 /// ICP-refined estimate"). No ground truth: each training pair is labelled by the network's
 /// current estimate refined by point-to-point ICP on the pair itself, and the labels become
 /// correspondences for the matching map (correspondenceLoss). Batched, on the model's tensors.
-#include <cstdint>
-
 #include <torch/torch.h>
 
+#include "obm/obmnet/config.hpp"
 #include "obm/obmnet/svd.hpp"
 
 namespace obm::obmnet {
 
-/// The teacher's settings (YAML `train.teacher:` map, TrainConfig::teacher).
-struct TeacherParams {
-  /// Point-to-point ICP iterations from each start.
-  int icp_iterations = 30;
-  /// ICP keeps a correspondence only when the moved source point is within a gate of its nearest
-  /// target point; the gate shrinks linearly from `initial_max_distance` (first iteration: a
-  /// start tens of degrees off) to `max_distance` (last) [normalised units of the pair].
-  double initial_max_distance = 0.5;
-  double max_distance = 0.1;
-  /// A source point's label is its nearest target point under the refined pose when that point is
-  /// within this distance, else none (−1): points outside the overlap, and most points of a pair
-  /// the teacher got wrong, carry no label [normalised units].
-  double match_radius = 0.05;
-  /// Also refine from the identity and keep, per pair, the start whose result has the higher
-  /// fitness (share of source points within match_radius).
-  bool from_identity = true;
-};
 
 /// Point-to-point ICP for a batch: `src` B×3×N, `tgt` B×3×M, starting from `T0`; each iteration
 /// pairs every moved source point with its nearest target point, drops pairs farther apart than

@@ -64,17 +64,13 @@ struct TrainConfig {
   double pose_loss_weight = 0.0;
   /// Self-training (not one of the paper's losses; docs/training.md): before every step the
   /// network's own estimate of each training pair, refined by point-to-point ICP on the pair
-  /// (and, when `teacher_from_identity`, ICP from the identity, the better fit kept), labels every
-  /// source point with its nearest target point within `teacher_match_radius`; the weighted
+  /// (and, when `teacher.from_identity`, ICP from the identity, the better fit kept), labels every
+  /// source point with its nearest target point within `teacher.match_radius`; the weighted
   /// correspondence term match_loss_weight·L_c is added to the loss (and, with
   /// pose_loss_weight > 0 on unlabelled pairs, the teacher's pose is the L_p label). No ground
-  /// truth: the labels are the network's and ICP's. 0 = off. YAML `train.teacher:` map.
+  /// truth: the labels are the network's and ICP's. 0 = off; > 0 needs a `train.teacher:` map.
   double match_loss_weight = 0.0;
-  int teacher_icp_iterations = 30;     ///< `teacher.icp_iterations`
-  double teacher_initial_max_distance = 0.5;  ///< `teacher.initial_max_distance`: first ICP gate
-  double teacher_max_distance = 0.1;   ///< `teacher.max_distance`: last ICP gate [normalised]
-  double teacher_match_radius = 0.05;  ///< `teacher.match_radius`: label radius [normalised]
-  bool teacher_from_identity = true;   ///< `teacher.from_identity`
+  TeacherParams teacher;  ///< the teacher's settings (`train.teacher:` map)
   /// Weights of L_g, L_n, L_s in the training objective (YAML `loss_weights: [g, n, s]`); the
   /// paper's sum is {1, 1, 1}. A diagnostic of which term leads where (obm-train --overfit); the
   /// validation loss stays the unweighted sum.
