@@ -5,7 +5,11 @@
 
 #include <cmath>
 #include <filesystem>
+#include <iostream>
 
+#include <ATen/CPUGeneratorImpl.h>
+
+#include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/obmnet/losses.hpp"
 #include "obm/obmnet/teacher.hpp"
@@ -46,6 +50,22 @@ double maxRotationErrorDeg(const torch::Tensor& R, const torch::Tensor& R_true) 
   const auto d = torch::matmul(R.transpose(1, 2), R_true).to(torch::kFloat64);
   const auto tr = d.diagonal(0, 1, 2).sum(1);
   return (((tr - 1.0) / 2.0).clamp(-1.0, 1.0).acos() * 180.0 / M_PI).max().item<double>();
+}
+
+/// B×3×N: `count` independent samplings of one ellipsoid surface (semi-axes 1, 0.6, 0.35), each
+/// from its own seed: two of them describe the same surface and share no point.
+torch::Tensor ellipsoidSamples(int count, int points, std::uint64_t seed) {
+  std::vector<torch::Tensor> out;
+  for (int c = 0; c < count; ++c) {
+    auto g = torch::make_generator<at::CPUGeneratorImpl>(seed + static_cast<std::uint64_t>(c));
+    auto d = torch::randn({3, points}, g, torch::kFloat32);
+    d = d / d.norm(2, 0, true);
+    d[0] *= 1.0f;
+    d[1] *= 0.6f;
+    d[2] *= 0.35f;
+    out.push_back(d);
+  }
+  return torch::stack(out);
 }
 
 }  // namespace
@@ -106,6 +126,123 @@ TEST(Teacher, TheStartOfBetterFitIsKeptPerPair) {
   EXPECT_LT(maxRotationErrorDeg(T.R, torch::eye(3).unsqueeze(0).repeat({2, 1, 1})), 1e-3);
   for (int64_t b = 0; b < 2; ++b)
     EXPECT_TRUE(torch::equal(labels[b], torch::arange(150, torch::kInt64))) << "pair " << b;
+}
+
+TEST(Teacher, NormalsOfAPlaneAndOfASphere) {
+  // A plane z = 0.3 (x, y random): every normal is ±z.
+  torch::manual_seed(5);
+  auto plane = torch::rand({1, 3, 300}, torch::kFloat32) * 2.0 - 1.0;
+  plane[0][2].fill_(0.3f);
+  const auto n = estimateNormals(plane, 10);
+  ASSERT_EQ(n.sizes(), plane.sizes());
+  EXPECT_GT(n[0][2].abs().min().item<double>(), 0.999);
+  // A dense unit sphere: each normal is along the point's own direction (either sign).
+  const auto sphere = ellipsoidSamples(1, 2000, 7) / torch::tensor({1.0f, 0.6f, 0.35f}).view({1, 3, 1});
+  const auto ns = estimateNormals(sphere, 10);
+  const auto cosine = (ns * sphere / sphere.norm(2, 1, true)).sum(1).abs();
+  EXPECT_GT(cosine.min().item<double>(), 0.95);
+  EXPECT_THROW(estimateNormals(plane, 2), ContractError);
+}
+
+TEST(Teacher, PointToPlaneIcpAlignsIndependentSamplingsWherePointToPointStalls) {
+  // Two independent samplings of one ellipsoid, 400 points each, the target moved by 12° about
+  // z and a small translation: no source point has an exact partner.
+  const auto a = ellipsoidSamples(1, 400, 100);
+  const auto b = ellipsoidSamples(1, 400, 200);
+  const auto T_true = zRotation(1, 12.0, {0.05f, -0.03f, 0.02f});
+  const auto tgt = transformPoints(T_true, b);
+  const auto I = identityTransforms(1, a.options());
+  const auto point = icpRefine(a, tgt, I, 30, 0.3, 0.1);
+  const auto plane = icpRefine(a, tgt, I, 30, 0.3, 0.1, estimateNormals(tgt, 10));
+  const double e_point = maxRotationErrorDeg(point.R, T_true.R);
+  const double e_plane = maxRotationErrorDeg(plane.R, T_true.R);
+  std::cout << "independent samplings, 12 deg: point-to-point ICP " << e_point
+            << " deg, point-to-plane " << e_plane << " deg\n";
+  EXPECT_LT(e_plane, 0.5);
+  EXPECT_LT(e_plane, 0.5 * e_point) << "point to point " << e_point << "°, point to plane " << e_plane << "°";
+  // Normals of the wrong size are refused.
+  EXPECT_THROW(icpRefine(a, tgt, I, 3, 0.3, 0.1, torch::zeros({1, 3, 10})), ContractError);
+}
+
+TEST(Teacher, TurnedStartsReachAPoseNeitherStartCan) {
+  // The same ellipsoid samples turned by 90° about z; the network's estimate is the identity too,
+  // and ICP with a tight gate stays where it starts. A start turned by 90° about z is the right
+  // one, and it labels every point.
+  const auto cloud = ellipsoidSamples(1, 300, 300);
+  const auto T_true = zRotation(1, 90.0, {0.f, 0.f, 0.f});
+  const auto tgt = transformPoints(T_true, cloud);
+  const auto I = identityTransforms(1, cloud.options());
+  TeacherParams p;
+  p.icp_iterations = 10;
+  p.initial_max_distance = 0.1;
+  p.max_distance = 0.05;
+  p.match_radius = 1e-3;
+  torch::Tensor labels;
+  const auto T_plain = teacherLabels(cloud, tgt, I, p, labels);
+  ASSERT_GT(maxRotationErrorDeg(T_plain.R, T_true.R), 45.0)
+      << "precondition: neither the network's start nor the identity reaches the pose";
+  p.start_rotation_deg = 90.0;
+  const auto T = teacherLabels(cloud, tgt, I, p, labels);
+  EXPECT_LT(maxRotationErrorDeg(T.R, T_true.R), 1e-2);
+  EXPECT_TRUE(torch::equal(labels[0], torch::arange(300, torch::kInt64)));
+}
+
+TEST(Teacher, PairsBelowTheMinimumFitnessAreNotLabelled) {
+  // Pair 0: the same samples (every point labelled); pair 1: a target cropped to the points with
+  // x > 0, padded with far points (about half the source labelled).
+  const auto cloud = ellipsoidSamples(2, 200, 400);
+  auto tgt = cloud.clone();
+  tgt[1] = torch::where(cloud[1][0].unsqueeze(0) > 0, cloud[1], torch::full_like(cloud[1], 50.f));
+  const auto I = identityTransforms(2, cloud.options());
+  TeacherParams p;
+  p.icp_iterations = 0;
+  p.from_identity = false;
+  p.match_radius = 1e-3;
+  torch::Tensor labels;
+  teacherLabels(cloud, tgt, I, p, labels);
+  const double share1 = (labels[1] >= 0).to(torch::kFloat64).mean().item<double>();
+  ASSERT_GT(share1, 0.3);
+  ASSERT_LT(share1, 0.7);
+  p.min_fitness = 0.8;
+  teacherLabels(cloud, tgt, I, p, labels);
+  EXPECT_EQ((labels[0] >= 0).sum().item<int64_t>(), 200);
+  EXPECT_EQ((labels[1] >= 0).sum().item<int64_t>(), 0);
+}
+
+TEST(Teacher, SettingsAreReadAndCheckedWithTheirKeys) {
+  const auto p = TeacherParams::load(ConfigNode::fromString(
+      "point_to_plane: true\nnormal_neighbours: 12\nstart_rotation_deg: 30\nmin_fitness: 0.6\n",
+      "t.yaml"));
+  EXPECT_TRUE(p.point_to_plane);
+  EXPECT_EQ(p.normal_neighbours, 12);
+  EXPECT_DOUBLE_EQ(p.start_rotation_deg, 30.0);
+  EXPECT_DOUBLE_EQ(p.min_fitness, 0.6);
+  for (const char* bad : {"normal_neighbours: 2\n", "start_rotation_deg: 200\n",
+                          "min_fitness: 1.5\n", "icp_steps: 3\n"}) {
+    try {
+      TeacherParams::load(ConfigNode::fromString(bad, "t.yaml"));
+      ADD_FAILURE() << "accepted: " << bad;
+    } catch (const ConfigError& e) {
+      const std::string key = std::string(bad).substr(0, std::string(bad).find(':'));
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(Losses, PoseLabelLossCountsOnlyTheMarkedPairs) {
+  torch::manual_seed(9);
+  const auto src = torch::randn({2, 3, 50});
+  const auto I = identityTransforms(2, src.options());
+  auto t_label = torch::zeros({2, 3});
+  t_label[1][0] = 2.0f;  // pair 1's label is 2 units off, pair 0's exact
+  const auto all = poseLabelLoss(I.R, I.t, I.R, t_label, src);
+  EXPECT_NEAR(all.item<double>(), 1.0, 1e-5);
+  const auto mask = torch::tensor({true, false});
+  EXPECT_NEAR(poseLabelLoss(I.R, I.t, I.R, t_label, src, mask).item<double>(), 0.0, 1e-5);
+  EXPECT_NEAR(poseLabelLoss(I.R, I.t, I.R, t_label, src, torch::tensor({false, true})).item<double>(),
+              2.0, 1e-5);
+  EXPECT_EQ(poseLabelLoss(I.R, I.t, I.R, t_label, src, torch::tensor({false, false})).item<double>(), 0.0);
+  EXPECT_THROW(poseLabelLoss(I.R, I.t, I.R, t_label, src, torch::tensor({true})), ContractError);
 }
 
 TEST(Losses, CorrespondenceLossIsTheCrossEntropyOfTheLabelledRows) {

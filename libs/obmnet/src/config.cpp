@@ -100,18 +100,29 @@ std::string ObmNetConfig::toYaml() const {
 
 TeacherParams TeacherParams::load(const ConfigNode& node) {
   node.checkKeys({"icp_iterations", "initial_max_distance", "max_distance", "match_radius",
-                  "from_identity"});
+                  "from_identity", "point_to_plane", "normal_neighbours", "start_rotation_deg",
+                  "min_fitness"});
   TeacherParams p;
   node.get("icp_iterations", p.icp_iterations);
   node.get("initial_max_distance", p.initial_max_distance);
   node.get("max_distance", p.max_distance);
   node.get("match_radius", p.match_radius);
   node.get("from_identity", p.from_identity);
+  node.get("point_to_plane", p.point_to_plane);
+  node.get("normal_neighbours", p.normal_neighbours);
+  node.get("start_rotation_deg", p.start_rotation_deg);
+  node.get("min_fitness", p.min_fitness);
   if (p.icp_iterations < 0) throw ConfigError(node.where("icp_iterations") + ": must be >= 0");
   if (!(p.max_distance > 0)) throw ConfigError(node.where("max_distance") + ": must be > 0");
   if (!(p.initial_max_distance >= p.max_distance))
     throw ConfigError(node.where("initial_max_distance") + ": must be >= max_distance");
   if (!(p.match_radius > 0)) throw ConfigError(node.where("match_radius") + ": must be > 0");
+  if (p.normal_neighbours < 3)
+    throw ConfigError(node.where("normal_neighbours") + ": must be >= 3 (a plane needs three points)");
+  if (!(p.start_rotation_deg >= 0.0 && p.start_rotation_deg <= 180.0))
+    throw ConfigError(node.where("start_rotation_deg") + ": must be in [0, 180]");
+  if (!(p.min_fitness >= 0.0 && p.min_fitness <= 1.0))
+    throw ConfigError(node.where("min_fitness") + ": must be in [0, 1]");
   return p;
 }
 

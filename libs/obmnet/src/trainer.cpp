@@ -434,7 +434,8 @@ struct Trainer::Impl {
       if (b.R_label.defined())
         pose = cfg.pose_loss_weight * poseLabelLoss(o.R, o.t, b.R_label, b.t_label, b.src);
       else if (teaching)
-        pose = cfg.pose_loss_weight * poseLabelLoss(o.R, o.t, T_teacher.R, T_teacher.t, b.src);
+        pose = cfg.pose_loss_weight *
+               poseLabelLoss(o.R, o.t, T_teacher.R, T_teacher.t, b.src, (labels >= 0).any(1));
       else
         throw ConfigError("train.pose_loss_weight > 0, but the training pairs carry no pose label "
                           "(set data.pose_labels to the mapping app's trajectory of each training "
@@ -702,7 +703,8 @@ std::vector<OverfitRow> Trainer::overfitOneBatch(int steps, int every, int epoch
     if (I.cfg.pose_loss_weight > 0.0 && b.R_label.defined())
       total = total + I.cfg.pose_loss_weight * poseLabelLoss(o.R, o.t, b.R_label, b.t_label, b.src);
     else if (I.cfg.pose_loss_weight > 0.0 && teaching)
-      total = total + I.cfg.pose_loss_weight * poseLabelLoss(o.R, o.t, T_teacher.R, T_teacher.t, b.src);
+      total = total + I.cfg.pose_loss_weight * poseLabelLoss(o.R, o.t, T_teacher.R, T_teacher.t,
+                                                             b.src, (labels >= 0).any(1));
     if (teaching) total = total + I.cfg.match_loss_weight * o.loss_match;
     if (s % every == 0 || s + 1 == steps) rows.push_back(row(s, total.item<double>(), o, "train"));
     total.backward();

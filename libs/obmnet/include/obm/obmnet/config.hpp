@@ -114,6 +114,20 @@ struct TeacherParams {
   /// Also refine from the identity and keep, per pair, the start whose result has the higher
   /// fitness (share of source points within match_radius).
   bool from_identity = true;
+  /// Point-to-plane ICP (target normals from each point's `normal_neighbours` nearest points)
+  /// instead of point-to-point: two independent samplings of a surface never share a point, and
+  /// the point-to-point residual of such a pair bottoms out at the sample spacing, where the
+  /// point-to-plane one goes to zero; it also converges from farther away.
+  bool point_to_plane = false;
+  int normal_neighbours = 10;
+  /// When > 0, every start (the network's, the identity's) is also tried turned by ± this angle
+  /// about the x, y and z axes through the moved source's centroid: six more starts each, so a
+  /// network estimate tens of degrees off still has a start inside ICP's basin [deg].
+  double start_rotation_deg = 0.0;
+  /// A pair whose best start aligns fewer than this share of its source points is left
+  /// unlabelled: low fitness is where the teacher's pose is most often wrong (0 = label every
+  /// pair).
+  double min_fitness = 0.0;
 
   /// Reads the keys of `node` (all optional; unknown keys are rejected) and validates the values;
   /// throws ConfigError naming the file and key.
