@@ -50,6 +50,8 @@ struct NetRun {
   /// With `ransac`: hypotheses ranked by their RANSAC consensus (the +consensus rows, the library's
   /// default) or by their fitness (the +ransac rows).
   bool by_consensus = false;
+  /// The self-training teacher's refinement after the network (the `obmnet+teacher` row).
+  bool teacher_refine = false;
 };
 
 /// `keep_start`: the network's start competes with its poses on their fitness
@@ -62,6 +64,14 @@ bench::Method obmnetMethod(const std::string& name, const NetRun& net, bool keep
   o.ransac_iterations = net.ransac;
   o.select_by_consensus = net.by_consensus;
   o.keep_start_if_fitter = keep_start;
+  if (net.teacher_refine) {
+    // As config/obmnet/train_objects_selftrain_plane.yaml's teacher, every pair refined.
+    o.teacher_refine = true;
+    o.teacher.point_to_plane = true;
+    o.teacher.initial_max_distance = 0.2;
+    o.teacher.max_distance = 0.07;
+    o.teacher.match_radius = 0.07;
+  }
   auto reg = std::make_shared<obmnet::ObmNetRegistrar>(o);
   return {name, [reg](const PointCloud& s, const PointCloud& t) {
             const obmnet::RegistrationResult r = reg->align(s, t);
@@ -534,6 +544,14 @@ int main(int argc, char** argv) {
       }
     } else {
       methods.push_back(obmnetMethod("obmnet", net));
+      // The network refined as the self-training teacher labels a pair (point-to-plane ICP on
+      // its own normalised points, from its pose and from the identity; docs/training.md); on
+      // request (--methods).
+      if (!methods_arg.empty()) {
+        NetRun net_t = net;
+        net_t.teacher_refine = true;
+        methods.push_back(obmnetMethod("obmnet+teacher", net_t));
+      }
       // The network verified against its start (the identity of the pair as given): meaningful
       // where the start is a prior (consecutive sweeps), so listed by default for the kitti
       // protocol and on request elsewhere.

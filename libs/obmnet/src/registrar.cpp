@@ -13,6 +13,7 @@
 #include "obm/core/timer.hpp"
 #include "obm/obmnet/data.hpp"
 #include "obm/obmnet/model_io.hpp"
+#include "obm/obmnet/teacher.hpp"
 #include "allocator.hpp"
 
 namespace obm::obmnet {
@@ -255,6 +256,31 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
       best_score = score;
       best = h;
     }
+  }
+  if (impl_->opt.teacher_refine) {
+    // The teacher's refinement of the chosen pose, on the same normalised points.
+    const Isometry3d& Tb = T_hat[static_cast<std::size_t>(best)];
+    auto R0 = torch::empty({1, 3, 3}, torch::kFloat32);
+    auto t0 = torch::empty({1, 3}, torch::kFloat32);
+    for (int a = 0; a < 3; ++a) {
+      t0[0][a] = static_cast<float>(Tb.translation()(a));
+      for (int b = 0; b < 3; ++b) R0[0][a][b] = static_cast<float>(Tb.linear()(a, b));
+    }
+    torch::Tensor labels;
+    RigidTransforms T;
+    {
+      std::lock_guard<std::mutex> lock(impl_->mutex);
+      T = teacherLabels(toTensor(src), toTensor(tgt), RigidTransforms{R0, t0}, impl_->opt.teacher,
+                        labels);
+    }
+    const auto R = T.R[0].to(torch::kFloat64).contiguous();
+    const auto t = T.t[0].to(torch::kFloat64).contiguous();
+    Eigen::Matrix3d Rm;
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) Rm(a, b) = R[a][b].item<double>();
+    T_hat[static_cast<std::size_t>(best)] = makeIsometry(
+        orthonormalize(Rm), Eigen::Vector3d(t[0].item<double>(), t[1].item<double>(), t[2].item<double>()));
+    fit_of[static_cast<std::size_t>(best)] = fitness(T_hat[static_cast<std::size_t>(best)]);
   }
   const double best_fit = fit_of[static_cast<std::size_t>(best)];
   r.T_target_source = norm.denormalize(T_hat[static_cast<std::size_t>(best)]);

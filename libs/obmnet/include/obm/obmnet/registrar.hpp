@@ -10,6 +10,7 @@
 
 #include "obm/core/point_cloud.hpp"
 #include "obm/core/se3.hpp"
+#include "obm/obmnet/config.hpp"
 
 namespace obm::obmnet {
 
@@ -115,6 +116,12 @@ class ObmNetRegistrar {
     /// consensus asks that the network's own matches agree on the pose. Without RANSAC the fitness
     /// chooses.
     bool select_by_consensus = true;
+    /// Refine the chosen pose as the self-training teacher labels a pair (teacherLabels with
+    /// `teacher`: ICP on the network's sampled, normalised points, from the network's pose and
+    /// from the identity, the start that aligns more points kept). Measures on benchmark pairs
+    /// what training hands the network; off by default.
+    bool teacher_refine = false;
+    TeacherParams teacher;
   };
 
   /// Loads the model. A missing, corrupt or mismatched file throws IoError / FormatError naming it.
