@@ -137,7 +137,8 @@ TEST(Teacher, NormalsOfAPlaneAndOfASphere) {
   ASSERT_EQ(n.sizes(), plane.sizes());
   EXPECT_GT(n[0][2].abs().min().item<double>(), 0.999);
   // A dense unit sphere: each normal is along the point's own direction (either sign).
-  const auto sphere = ellipsoidSamples(1, 2000, 7) / torch::tensor({1.0f, 0.6f, 0.35f}).view({1, 3, 1});
+  const auto sphere =
+      ellipsoidSamples(1, 2000, 7) / torch::tensor({1.0f, 0.6f, 0.35f}).view({1, 3, 1});
   const auto ns = estimateNormals(sphere, 10);
   const auto cosine = (ns * sphere / sphere.norm(2, 1, true)).sum(1).abs();
   EXPECT_GT(cosine.min().item<double>(), 0.95);
@@ -159,7 +160,8 @@ TEST(Teacher, PointToPlaneIcpAlignsIndependentSamplingsWherePointToPointStalls) 
   std::cout << "independent samplings, 12 deg: point-to-point ICP " << e_point
             << " deg, point-to-plane " << e_plane << " deg\n";
   EXPECT_LT(e_plane, 0.5);
-  EXPECT_LT(e_plane, 0.5 * e_point) << "point to point " << e_point << "°, point to plane " << e_plane << "°";
+  EXPECT_LT(e_plane, 0.5 * e_point)
+      << "point to point " << e_point << "°, point to plane " << e_plane << "°";
   // Normals of the wrong size are refused.
   EXPECT_THROW(icpRefine(a, tgt, I, 3, 0.3, 0.1, torch::zeros({1, 3, 10})), ContractError);
 }
@@ -239,9 +241,11 @@ TEST(Losses, PoseLabelLossCountsOnlyTheMarkedPairs) {
   EXPECT_NEAR(all.item<double>(), 1.0, 1e-5);
   const auto mask = torch::tensor({true, false});
   EXPECT_NEAR(poseLabelLoss(I.R, I.t, I.R, t_label, src, mask).item<double>(), 0.0, 1e-5);
-  EXPECT_NEAR(poseLabelLoss(I.R, I.t, I.R, t_label, src, torch::tensor({false, true})).item<double>(),
-              2.0, 1e-5);
-  EXPECT_EQ(poseLabelLoss(I.R, I.t, I.R, t_label, src, torch::tensor({false, false})).item<double>(), 0.0);
+  EXPECT_NEAR(
+      poseLabelLoss(I.R, I.t, I.R, t_label, src, torch::tensor({false, true})).item<double>(), 2.0,
+      1e-5);
+  const auto none = torch::tensor({false, false});
+  EXPECT_EQ(poseLabelLoss(I.R, I.t, I.R, t_label, src, none).item<double>(), 0.0);
   EXPECT_THROW(poseLabelLoss(I.R, I.t, I.R, t_label, src, torch::tensor({true})), ContractError);
 }
 

@@ -118,7 +118,8 @@ TeacherParams TeacherParams::load(const ConfigNode& node) {
     throw ConfigError(node.where("initial_max_distance") + ": must be >= max_distance");
   if (!(p.match_radius > 0)) throw ConfigError(node.where("match_radius") + ": must be > 0");
   if (p.normal_neighbours < 3)
-    throw ConfigError(node.where("normal_neighbours") + ": must be >= 3 (a plane needs three points)");
+    throw ConfigError(node.where("normal_neighbours") +
+                      ": must be >= 3 (a plane needs three points)");
   if (!(p.start_rotation_deg >= 0.0 && p.start_rotation_deg <= 180.0))
     throw ConfigError(node.where("start_rotation_deg") + ": must be in [0, 180]");
   if (!(p.min_fitness >= 0.0 && p.min_fitness <= 1.0))

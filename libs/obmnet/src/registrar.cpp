@@ -278,8 +278,9 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
     Eigen::Matrix3d Rm;
     for (int a = 0; a < 3; ++a)
       for (int b = 0; b < 3; ++b) Rm(a, b) = R[a][b].item<double>();
-    T_hat[static_cast<std::size_t>(best)] = makeIsometry(
-        orthonormalize(Rm), Eigen::Vector3d(t[0].item<double>(), t[1].item<double>(), t[2].item<double>()));
+    T_hat[static_cast<std::size_t>(best)] =
+        makeIsometry(orthonormalize(Rm), Eigen::Vector3d(t[0].item<double>(), t[1].item<double>(),
+                                                         t[2].item<double>()));
     fit_of[static_cast<std::size_t>(best)] = fitness(T_hat[static_cast<std::size_t>(best)]);
   }
   const double best_fit = fit_of[static_cast<std::size_t>(best)];

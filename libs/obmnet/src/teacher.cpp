@@ -67,7 +67,8 @@ RigidTransforms icpRefine(const torch::Tensor& src, const torch::Tensor& tgt,
   OBM_ASSERT(iterations >= 0 && max_distance > 0 && initial_max_distance >= max_distance,
              "icpRefine: iterations >= 0, initial_max_distance >= max_distance > 0");
   const bool plane = tgt_normals.defined();
-  OBM_ASSERT(!plane || tgt_normals.sizes() == tgt.sizes(), "icpRefine: tgt_normals must be B×3×M");
+  OBM_ASSERT(!plane || tgt_normals.sizes() == tgt.sizes(),
+             "icpRefine: tgt_normals must be B×3×M");
   torch::NoGradGuard ng;
   RigidTransforms T{T0.R.detach().clone(), T0.t.detach().clone()};
   for (int it = 0; it < iterations; ++it) {
@@ -85,10 +86,13 @@ RigidTransforms icpRefine(const torch::Tensor& src, const torch::Tensor& tgt,
       ok = w.sum(1) >= 3.0;
     } else {
       // r_i = n_i·(m_i − q_i) at the moved point m_i; with m_i → exp(ω) m_i + v,
-      // ∂r_i/∂(ω, v) = (m_i × n_i, n_i). Normal equations A δ = −Σ w J r, per pair, in double.
-      const auto n = tgt_normals.gather(2, nn.idx.unsqueeze(1).expand({tgt.size(0), 3, nn.idx.size(1)}));
+      // ∂r_i/∂(ω, v) = (m_i × n_i, n_i). Normal equations A δ = −Σ w J r, per pair, in
+      // double.
+      const auto n =
+          tgt_normals.gather(2, nn.idx.unsqueeze(1).expand({tgt.size(0), 3, nn.idx.size(1)}));
       const auto r = (n * (moved - nn.q)).sum(1);                                    // B×N
-      const auto J = torch::cat({torch::cross(moved, n, 1), n}, 1).to(torch::kFloat64);  // B×6×N
+      const auto J =
+          torch::cat({torch::cross(moved, n, 1), n}, 1).to(torch::kFloat64);  // B×6×N
       const auto wd = w.to(torch::kFloat64);
       const auto Jw = J * wd.unsqueeze(1);
       const auto A = torch::matmul(Jw, J.transpose(1, 2)) +

@@ -24,8 +24,9 @@ RigidTransforms icpRefine(const torch::Tensor& src, const torch::Tensor& tgt,
                           const RigidTransforms& T0, int iterations, double initial_max_distance,
                           double max_distance, const torch::Tensor& tgt_normals = {});
 
-/// B×3×M unit normals of a batch of clouds B×3×M: per point, the direction of least spread of its
-/// `k` nearest points (itself included). The sign is arbitrary: point-to-plane ICP does not need it.
+/// B×3×M unit normals of a batch of clouds B×3×M: per point, the direction of least spread of
+/// its `k` nearest points (itself included). The sign is arbitrary: point-to-plane ICP does not
+/// need it.
 torch::Tensor estimateNormals(const torch::Tensor& points, int k);
 
 /// B: the share of source points whose nearest target point is within `radius` after `T`.
