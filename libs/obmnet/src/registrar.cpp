@@ -58,6 +58,11 @@ std::string ObmNetRegistrar::describe() const {
 }
 
 namespace {
+/// The network's float rotation made exactly orthonormal.
+Isometry3d orthonormalized(const Isometry3d& T) {
+  return makeIsometry(orthonormalize(T.linear()), T.translation());
+}
+
 torch::Tensor toTensor(const PointCloud& c) {
   auto t = torch::empty({1, 3, static_cast<int64_t>(c.size())}, torch::kFloat32);
   auto a = t.accessor<float, 3>();
@@ -181,15 +186,8 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
   std::vector<double> fit_of(static_cast<std::size_t>(H), 0.0);
   std::vector<double> consensus_of(static_cast<std::size_t>(H), -1.0);
   for (int h = 0; h < H; ++h) {
-    const auto R = o.R[h].to(torch::kFloat64).contiguous();
-    const auto t = o.t[h].to(torch::kFloat64).contiguous();
-    Eigen::Matrix3d Rm;
-    for (int a = 0; a < 3; ++a)
-      for (int b = 0; b < 3; ++b) Rm(a, b) = R[a][b].item<double>();
-    T_hat[static_cast<std::size_t>(h)] =
-        makeIsometry(orthonormalize(Rm), Eigen::Vector3d(t[0].item<double>(), t[1].item<double>(),
-                                                         t[2].item<double>())) *
-        turn(Rz[static_cast<std::size_t>(h)]);
+    T_hat[static_cast<std::size_t>(h)] = orthonormalized(toIsometry(o.R, o.t, h)) *
+                                         turn(Rz[static_cast<std::size_t>(h)]);
     bool have_consensus_pose = false;
     Isometry3d T_r = Isometry3d::Identity();
     if (impl_->opt.ransac_iterations > 0) {
@@ -259,28 +257,15 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
   }
   if (impl_->opt.teacher_refine) {
     // The teacher's refinement of the chosen pose, on the same normalised points.
-    const Isometry3d& Tb = T_hat[static_cast<std::size_t>(best)];
-    auto R0 = torch::empty({1, 3, 3}, torch::kFloat32);
-    auto t0 = torch::empty({1, 3}, torch::kFloat32);
-    for (int a = 0; a < 3; ++a) {
-      t0[0][a] = static_cast<float>(Tb.translation()(a));
-      for (int b = 0; b < 3; ++b) R0[0][a][b] = static_cast<float>(Tb.linear()(a, b));
-    }
     torch::Tensor labels;
     RigidTransforms T;
     {
       std::lock_guard<std::mutex> lock(impl_->mutex);
-      T = teacherLabels(toTensor(src), toTensor(tgt), RigidTransforms{R0, t0}, impl_->opt.teacher,
+      T = teacherLabels(toTensor(src), toTensor(tgt),
+                        fromIsometry(T_hat[static_cast<std::size_t>(best)]), impl_->opt.teacher,
                         labels);
     }
-    const auto R = T.R[0].to(torch::kFloat64).contiguous();
-    const auto t = T.t[0].to(torch::kFloat64).contiguous();
-    Eigen::Matrix3d Rm;
-    for (int a = 0; a < 3; ++a)
-      for (int b = 0; b < 3; ++b) Rm(a, b) = R[a][b].item<double>();
-    T_hat[static_cast<std::size_t>(best)] =
-        makeIsometry(orthonormalize(Rm), Eigen::Vector3d(t[0].item<double>(), t[1].item<double>(),
-                                                         t[2].item<double>()));
+    T_hat[static_cast<std::size_t>(best)] = orthonormalized(toIsometry(T.R, T.t, 0));
     fit_of[static_cast<std::size_t>(best)] = fitness(T_hat[static_cast<std::size_t>(best)]);
   }
   const double best_fit = fit_of[static_cast<std::size_t>(best)];

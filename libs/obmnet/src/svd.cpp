@@ -89,4 +89,22 @@ RigidTransforms identityTransforms(int64_t batch, const torch::TensorOptions& op
           torch::zeros({batch, 3}, options)};
 }
 
+Isometry3d toIsometry(const torch::Tensor& R, const torch::Tensor& t, int64_t i) {
+  const auto Rd = R[i].to(torch::kFloat64).contiguous();
+  const auto td = t[i].to(torch::kFloat64).contiguous();
+  Eigen::Matrix3d Rm;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) Rm(r, c) = Rd[r][c].item<double>();
+  return makeIsometry(
+      Rm, Eigen::Vector3d(td[0].item<double>(), td[1].item<double>(), td[2].item<double>()));
+}
+
+RigidTransforms fromIsometry(const Isometry3d& T) {
+  // Row-major copies (Eigen stores column-major) as R·p expects.
+  const Eigen::Matrix<float, 3, 3, Eigen::RowMajor> R = T.linear().cast<float>();
+  const Eigen::Vector3f t = T.translation().cast<float>();
+  return {torch::from_blob(const_cast<float*>(R.data()), {1, 3, 3}, torch::kFloat32).clone(),
+          torch::from_blob(const_cast<float*>(t.data()), {1, 3}, torch::kFloat32).clone()};
+}
+
 }  // namespace obm::obmnet

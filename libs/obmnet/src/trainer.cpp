@@ -176,12 +176,9 @@ Batch makeBatch(std::vector<RegistrationPair> pairs, double radius, bool shared_
     const auto n = PairNormalization::compute(p.source, p.target, radius, shared_centroid);
     labelled = labelled && p.has_pose_label;
     if (labelled) {
-      const Isometry3d L = n.normalize(p.T_target_source_label);
-      // Row-major copies (Eigen stores column-major) as the model's R·p expects.
-      const Eigen::Matrix<float, 3, 3, Eigen::RowMajor> R = L.linear().cast<float>();
-      const Eigen::Vector3f t = L.translation().cast<float>();
-      Rl.push_back(torch::from_blob(const_cast<float*>(R.data()), {3, 3}, torch::kFloat32).clone());
-      tl.push_back(torch::from_blob(const_cast<float*>(t.data()), {3}, torch::kFloat32).clone());
+      const RigidTransforms L = fromIsometry(n.normalize(p.T_target_source_label));
+      Rl.push_back(L.R[0]);
+      tl.push_back(L.t[0]);
     }
     PointCloud src = p.source, tgt = p.target;
     n.applySource(src);
@@ -220,16 +217,6 @@ Batch makeBatch(std::vector<RegistrationPair> pairs, double radius, bool shared_
   }
   b.pairs = std::move(pairs);
   return b;
-}
-
-Isometry3d toIsometry(const torch::Tensor& R, const torch::Tensor& t, int64_t i) {
-  const auto Rd = R[i].to(torch::kFloat64).contiguous();
-  const auto td = t[i].to(torch::kFloat64).contiguous();
-  Eigen::Matrix3d Rm;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) Rm(r, c) = Rd[r][c].item<double>();
-  return makeIsometry(
-      Rm, Eigen::Vector3d(td[0].item<double>(), td[1].item<double>(), td[2].item<double>()));
 }
 
 std::string csvHeader() {

@@ -4,6 +4,8 @@
 /// on B×3×3 / B×3 tensors.
 #include <torch/torch.h>
 
+#include "obm/core/se3.hpp"
+
 namespace obm::obmnet {
 
 /// A batch of rigid transforms T_a_b: p_a = R·p_b + t.
@@ -32,6 +34,12 @@ torch::Tensor transformPoints(const RigidTransforms& T, const torch::Tensor& poi
 
 /// Composition T_a_c = T_a_b ∘ T_b_c: R = R_ab R_bc, t = R_ab t_bc + t_ab.
 RigidTransforms compose(const RigidTransforms& T_a_b, const RigidTransforms& T_b_c);
+
+/// Transform `i` of the batch (R B×3×3, t B×3) as an Isometry3d, in double.
+Isometry3d toIsometry(const torch::Tensor& R, const torch::Tensor& t, int64_t i);
+
+/// One transform as a batch of one (float32, row-major R as transformPoints expects).
+RigidTransforms fromIsometry(const Isometry3d& T);
 
 /// Identity transforms for a batch of `batch` on the given tensor options.
 RigidTransforms identityTransforms(int64_t batch, const torch::TensorOptions& options);
