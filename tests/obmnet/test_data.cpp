@@ -8,6 +8,7 @@
 #include <fstream>
 #include <memory>
 
+#include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/mesh.hpp"
 #include "obm/obmnet/data.hpp"
@@ -346,6 +347,62 @@ TEST(Trainer, WarmStartNeedsTheSameLayerShapesOnly) {
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("m.pt"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("shape"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Trainer, AModelWithoutEdgeNormalsWarmStartsOneWithThemUnchanged) {
+  const std::string dir = obm::test::scratchDir("obmnet_warm_start_normals");
+  obmnet::ObmNetConfig plain = saveSmallModel(dir + "/m.pt", 7, 16)->config();
+  plain.k1 = 12;  // normals from 12 neighbours of the 64 points
+  auto trainerWith = [&](const obmnet::ObmNetConfig& mc, const std::string& run) {
+    TrainConfig tc;
+    tc.model = mc;
+    tc.protocol.num_points = 64;
+    tc.val_protocol.num_points = 64;
+    tc.val_pairs = 3;
+    std::vector<PointCloud> clouds{sphereCloud(128, 21)};
+    return std::make_unique<Trainer>(tc, clouds, clouds, dir + "/" + run);
+  };
+  obmnet::ObmNetConfig with_normals = plain;
+  with_normals.edge_normals = true;
+  with_normals.normal_neighbours = 12;
+  auto a = trainerWith(plain, "plain");
+  a->initializeFrom(dir + "/m.pt");
+  auto b = trainerWith(with_normals, "normals");
+  const ValidationScores fresh = b->validate();  // its own random weights
+  b->initializeFrom(dir + "/m.pt");
+  const ValidationScores sa = a->validate(), sb = b->validate();
+  // The normal channels start with zero weights: the same poses, loss and matches as the model.
+  EXPECT_GT(sa.mie_r, 1e-3);
+  EXPECT_NEAR(sb.mie_r, sa.mie_r, 1e-3 * sa.mie_r);
+  EXPECT_NEAR(sb.loss, sa.loss, 1e-4 * std::abs(sa.loss));
+  EXPECT_NEAR(sb.inlier_ratio, sa.inlier_ratio, 1e-6);
+  EXPECT_GT(std::abs(fresh.loss - sb.loss), 1e-4 * std::abs(sa.loss))
+      << "the warm start must have replaced the fresh weights";
+  // The other way round the extra columns have nowhere to go: a shape error naming the file.
+  const std::string normals_model = dir + "/n.pt";
+  {
+    torch::manual_seed(8);
+    obmnet::ObmNet net(with_normals);
+    ModelMeta meta;
+    meta.num_points = 64;
+    saveModel(normals_model, net, meta);
+  }
+  const auto reloaded = loadModel(normals_model)->config();  // the settings travel with the weights
+  EXPECT_TRUE(reloaded.edge_normals);
+  EXPECT_EQ(reloaded.normal_neighbours, 12);
+  try {
+    ObmNetConfig::load(
+        ConfigNode::fromString("edge_normals: true\nnormal_neighbours: 2\n", "m.yaml"));
+    FAIL() << "two neighbours cannot give a normal";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("normal_neighbours"), std::string::npos) << e.what();
+  }
+  try {
+    trainerWith(plain, "back")->initializeFrom(normals_model);
+    FAIL() << "a model with edge normals cannot warm-start one without";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("n.pt"), std::string::npos) << e.what();
   }
 }
 

@@ -221,41 +221,73 @@ TEST(InlierEvaluator, InferenceWithoutGradientEqualsTheGraph) {
 
 TEST(DenseEdgeConv, FusedInferenceEqualsTheLayeredPath) {
   torch::manual_seed(5);
-  for (int64_t k : {5, 32}) {
-    obmnet::DenseEdgeConv conv(k, 48);
-    randomiseBatchNormStatistics(*conv);
-    conv->eval();
-    const auto x = torch::randn({3, 3, 70});
-    const auto idx = knnIndices(x, x, k);
-    torch::NoGradGuard ng;
-    const auto fused = conv->forward(x, idx);  // eval, no gradient: the fused path
-    const auto layered = conv->forwardLayered(x, idx);
-    ASSERT_EQ(fused.sizes(), layered.sizes());
-    EXPECT_GT(layered.abs().max().item<float>(), 0.1f);
-    EXPECT_TRUE(torch::allclose(fused, layered, 1e-4, 1e-5))
-        << "k = " << k << ", max difference " << (fused - layered).abs().max().item<float>();
-    // The folded layers are kept between calls; weights changed in place (as by an optimiser
-    // step or a model load) must be folded again.
-    randomiseBatchNormStatistics(*conv);
-    const auto refused = conv->forward(x, idx);
-    const auto relayered = conv->forwardLayered(x, idx);
-    EXPECT_FALSE(torch::allclose(relayered, layered, 1e-2, 1e-3));
-    EXPECT_TRUE(torch::allclose(refused, relayered, 1e-4, 1e-5))
-        << "k = " << k << ", after new weights, max difference "
-        << (refused - relayered).abs().max().item<float>();
+  for (const bool with_normals : {false, true}) {
+    for (int64_t k : {5, 32}) {
+      obmnet::DenseEdgeConv conv(k, 48, with_normals);
+      randomiseBatchNormStatistics(*conv);
+      conv->eval();
+      const auto x = torch::randn({3, 3, 70});
+      const auto idx = knnIndices(x, x, k);
+      const auto n = with_normals ? orientedNormals(x, idx) : torch::Tensor();
+      torch::NoGradGuard ng;
+      const auto fused = conv->forward(x, idx, n);  // eval, no gradient: the fused path
+      const auto layered = conv->forwardLayered(x, idx, n);
+      ASSERT_EQ(fused.sizes(), layered.sizes());
+      EXPECT_GT(layered.abs().max().item<float>(), 0.1f);
+      EXPECT_TRUE(torch::allclose(fused, layered, 1e-4, 1e-5))
+          << "normals " << with_normals << ", k = " << k << ", max difference "
+          << (fused - layered).abs().max().item<float>();
+      // The folded layers are kept between calls; weights changed in place (as by an optimiser
+      // step or a model load) must be folded again.
+      randomiseBatchNormStatistics(*conv);
+      const auto refused = conv->forward(x, idx, n);
+      const auto relayered = conv->forwardLayered(x, idx, n);
+      EXPECT_FALSE(torch::allclose(relayered, layered, 1e-2, 1e-3));
+      EXPECT_TRUE(torch::allclose(refused, relayered, 1e-4, 1e-5))
+          << "normals " << with_normals << ", k = " << k << ", after new weights, max difference "
+          << (refused - relayered).abs().max().item<float>();
+      if (with_normals) {
+        // The normal channels count: other normals, other features.
+        const auto flipped = conv->forward(x, idx, -n);
+        EXPECT_FALSE(torch::allclose(flipped, refused, 1e-3, 1e-4));
+      }
+    }
   }
+}
+
+TEST(DenseEdgeConv, OrientedNormalsPointOutOfASphereAndTurnWithIt) {
+  // 400 random points on a sphere of radius 2 about (1, −1, 3).
+  torch::manual_seed(9);
+  auto dirs = torch::randn({1, 3, 400});
+  dirs = dirs / dirs.norm(2, 1, true);
+  const auto centre = torch::tensor({1.0f, -1.0f, 3.0f}).view({1, 3, 1});
+  const auto x = centre + 2.0 * dirs;
+  const auto n = orientedNormals(x, knnIndices(x, x, 16));
+  ASSERT_EQ(n.sizes(), x.sizes());
+  EXPECT_TRUE(torch::allclose(n.norm(2, 1), torch::ones({1, 400}), 1e-4, 1e-5));
+  // Outward: cos(n, radial direction) close to +1 at every point, not merely in magnitude.
+  EXPECT_GT((n * dirs).sum(1).min().item<float>(), 0.95f);
+  // A rigid motion turns them: n(R·x + t) = R·n(x) (same neighbourhoods, same sign rule).
+  const auto R = torch::tensor({0.36f, 0.48f, -0.8f, -0.8f, 0.6f, 0.0f, 0.48f, 0.64f, 0.6f})
+                     .view({1, 3, 3});
+  const auto y = torch::bmm(R, x) + torch::tensor({5.0f, 0.0f, -2.0f}).view({1, 3, 1});
+  const auto ny = orientedNormals(y, knnIndices(x, x, 16));
+  EXPECT_LT((ny - torch::bmm(R, n)).abs().max().item<float>(), 1e-3f);
 }
 
 TEST(ObmNet, InferenceWithoutGradientsEqualsTheTrainingGraphInEvalMode) {
   // Eval mode without gradients takes the fused extractor and the row-wise matching kernel; with
   // gradients enabled it runs the layer-by-layer graph of training. The two must give the same
   // pose, with neighbour map matching and without, on sizes that are not a multiple of the
-  // kernel's row block.
-  for (const bool use_nmm : {true, false}) {
+  // kernel's row block; and with edge normals.
+  for (const auto& [use_nmm, edge_normals] :
+       std::vector<std::pair<bool, bool>>{{true, false}, {false, false}, {true, true}}) {
     torch::manual_seed(6);
     auto cfg = smallConfig();
     cfg.k1 = 8;
     cfg.use_nmm = use_nmm;
+    cfg.edge_normals = edge_normals;
+    cfg.normal_neighbours = 6;
     obmnet::ObmNet net(cfg);
     randomiseBatchNormStatistics(*net);
     net->eval();

@@ -11,8 +11,9 @@ ObmNetConfig ObmNetConfig::load(const ConfigNode& node) {
   ObmNetConfig c;
   node.checkKeys({"emb_dims", "dim", "k1", "k2", "n_keypoints", "n_samples", "n_iters", "nn_margin",
                   "loss_margin", "beta", "tau_min", "use_overlap_sampling", "use_bias_prediction",
-                  "use_nmm", "nmm_score_grad", "planar", "voxel_keypoints", "neighbor_loss_nearest", "shared_centroid",
-                  "ground_band", "soft_inference_sampling", "seed", "match_contrast"});
+                  "use_nmm", "nmm_score_grad", "planar", "voxel_keypoints", "neighbor_loss_nearest",
+                  "shared_centroid", "edge_normals", "normal_neighbours", "ground_band",
+                  "soft_inference_sampling", "seed", "match_contrast"});
   node.get("emb_dims", c.emb_dims);
   node.get("dim", c.dim);
   node.get("k1", c.k1);
@@ -32,6 +33,8 @@ ObmNetConfig ObmNetConfig::load(const ConfigNode& node) {
   node.get("voxel_keypoints", c.voxel_keypoints);
   node.get("neighbor_loss_nearest", c.neighbor_loss_nearest);
   node.get("shared_centroid", c.shared_centroid);
+  node.get("edge_normals", c.edge_normals);
+  node.get("normal_neighbours", c.normal_neighbours);
   node.get("ground_band", c.ground_band);
   node.get("soft_inference_sampling", c.soft_inference_sampling);
   node.get("seed", c.seed);
@@ -57,6 +60,7 @@ void ObmNetConfig::validate(const std::string& where) const {
   if (!(beta >= 0.0)) fail("beta", "must be >= 0");
   if (!(tau_min > 0.0)) fail("tau_min", "must be > 0");
   if (!(ground_band >= 0.0)) fail("ground_band", "must be >= 0");
+  if (normal_neighbours < 3) fail("normal_neighbours", "must be >= 3 (a plane needs three points)");
   if (use_bias_prediction && !use_overlap_sampling)
     fail("use_bias_prediction",
          "needs use_overlap_sampling: α weights the sampled overlap region, which OS provides");
@@ -88,6 +92,10 @@ std::string ObmNetConfig::toYaml() const {
   if (neighbor_loss_nearest)
     out << YAML::Key << "neighbor_loss_nearest" << YAML::Value << neighbor_loss_nearest;
   if (shared_centroid) out << YAML::Key << "shared_centroid" << YAML::Value << shared_centroid;
+  if (edge_normals) {
+    out << YAML::Key << "edge_normals" << YAML::Value << edge_normals;
+    out << YAML::Key << "normal_neighbours" << YAML::Value << normal_neighbours;
+  }
   if (ground_band > 0.0) out << YAML::Key << "ground_band" << YAML::Value << ground_band;
   if (soft_inference_sampling)
     out << YAML::Key << "soft_inference_sampling" << YAML::Value << soft_inference_sampling;

@@ -12,7 +12,8 @@ using obmnet::RigidTransforms;
 
 ObmNetImpl::ObmNetImpl(const ObmNetConfig& config) : config_(config) {
   config_.validate();
-  extractor_ = register_module("extractor", obmnet::DenseEdgeConv(config_.k1, config_.emb_dims));
+  extractor_ = register_module(
+      "extractor", obmnet::DenseEdgeConv(config_.k1, config_.emb_dims, config_.edge_normals));
   if (config_.use_overlap_sampling) {
     sampler_ = register_module(
         "sampler", obmnet::OverlapSampler(config_.emb_dims, config_.n_samples, config_.tau_min));
@@ -86,11 +87,20 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
   // Target-side quantities do not change over the iterations: computed once.
   const auto tgt_knn1 = obmnet::knnIndices(tgt, tgt, config_.k1);
   const auto tgt_knn2 = nearestOf(tgt_knn1, tgt, config_.k2);
-  const auto phi_q = extractor_->forward(tgt, tgt_knn1);
   // The source's neighbourhoods do not change either: the iterations move it rigidly, which
   // keeps every distance within it (the features, which see coordinates, are recomputed).
   const auto src_knn1 = obmnet::knnIndices(src, src, config_.k1);
   const auto src_knn2 = nearestOf(src_knn1, src, config_.k2);
+  // Edge normals: estimated once per cloud; the source's turn with it, n = R·n₀, since the
+  // estimate and its sign rule (away from the centroid) move rigidly with the cloud.
+  torch::Tensor tgt_edge_normals, src_edge_normals;
+  if (config_.edge_normals) {
+    tgt_edge_normals =
+        obmnet::orientedNormals(tgt, nearestOf(tgt_knn1, tgt, config_.normal_neighbours));
+    src_edge_normals =
+        obmnet::orientedNormals(src, nearestOf(src_knn1, src, config_.normal_neighbours));
+  }
+  const auto phi_q = extractor_->forward(tgt, tgt_knn1, tgt_edge_normals);
   // The target's per-point shares of the sampler's first layer and of the fusion (W_Φ·Φ_q) do
   // not change over the iterations either.
   torch::Tensor phi_q_logits, phi_q_fusion;
@@ -108,7 +118,9 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
     // the gradient does not flow back through the earlier iterations' poses (as in RIENet).
     const auto src_cur = obmnet::transformPoints(T, src).detach();
     // Step 1: features of the moved source.
-    const auto phi_p = extractor_->forward(src_cur, src_knn1);
+    const auto phi_p = extractor_->forward(
+        src_cur, src_knn1,
+        src_edge_normals.defined() ? torch::bmm(T.R, src_edge_normals).detach() : torch::Tensor());
 
     // Steps 2–3: overlap sampling and bias prediction.
     auto feat_p = phi_p, feat_q = phi_q;

@@ -46,6 +46,23 @@ torch::Tensor edgeVectors(const torch::Tensor& x, const torch::Tensor& idx) {
   return gatherNeighbors(x, idx) - x.unsqueeze(3);
 }
 
+torch::Tensor orientedNormals(const torch::Tensor& x, const torch::Tensor& idx) {
+  OBM_ASSERT(x.dim() == 3 && x.size(1) == 3 && idx.dim() == 3 && idx.size(0) == x.size(0) &&
+                 idx.size(1) == x.size(2) && idx.size(2) >= 3,
+             "orientedNormals expects points B×3×N and neighbours B×N×k with k >= 3");
+  torch::NoGradGuard no_grad;
+  const auto nb = gatherNeighbors(x.detach(), idx);                   // B×3×N×k
+  const auto a = (nb - nb.mean(3, true)).permute({0, 2, 1, 3});      // B×N×3×k
+  const auto C = torch::matmul(a, a.transpose(2, 3)).to(torch::kFloat64);  // B×N×3×3
+  // Eigenvalues ascending: the first eigenvector spans the direction of least spread.
+  auto n = std::get<1>(torch::linalg_eigh(C)).select(3, 0).to(x.scalar_type());  // B×N×3
+  n = n.permute({0, 2, 1});                                                     // B×3×N
+  // Away from the centroid; a point exactly at it keeps the solver's sign.
+  const auto outward = (x.detach() - x.detach().mean(2, true));
+  const auto sign = torch::where((n * outward).sum(1, true) < 0, -1.0, 1.0).to(n.scalar_type());
+  return (n * sign).contiguous();
+}
+
 // ---------------------------------------------------------------------------------------------
 
 namespace {
@@ -80,31 +97,44 @@ void addConv2dBnLrelu(nn::Sequential& seq, int64_t in, int64_t out) {
 
 }  // namespace
 
-DenseEdgeConvImpl::DenseEdgeConvImpl(int64_t k, int64_t emb_dims) : k_(k) {
-  // Dense connectivity: layer l sees the edge vectors (3) and the outputs of layers 1..l−1.
-  layer1_ = register_module("layer1", conv2dBnRelu(3, 32));
-  layer2_ = register_module("layer2", conv2dBnRelu(3 + 32, 32));
-  layer3_ = register_module("layer3", conv2dBnRelu(3 + 32 + 32, 64));
-  layer4_ = register_module("layer4", conv2dBnRelu(3 + 32 + 32 + 64, 128));
+DenseEdgeConvImpl::DenseEdgeConvImpl(int64_t k, int64_t emb_dims, bool with_normals)
+    : k_(k), edge_channels_(with_normals ? 9 : 3) {
+  // Dense connectivity: layer l sees the edge features (E = 3 or 9) and the outputs of layers
+  // 1..l−1.
+  const int64_t E = edge_channels_;
+  layer1_ = register_module("layer1", conv2dBnRelu(E, 32));
+  layer2_ = register_module("layer2", conv2dBnRelu(E + 32, 32));
+  layer3_ = register_module("layer3", conv2dBnRelu(E + 32 + 32, 64));
+  layer4_ = register_module("layer4", conv2dBnRelu(E + 32 + 32 + 64, 128));
   out_ = register_module(
       "out",
       nn::Sequential(nn::Conv1d(nn::Conv1dOptions(32 + 32 + 64 + 128, emb_dims, 1).bias(false)),
                      nn::BatchNorm1d(emb_dims), nn::ReLU()));
 }
 
-torch::Tensor DenseEdgeConvImpl::forward(const torch::Tensor& x, const torch::Tensor& idx_in) {
+torch::Tensor DenseEdgeConvImpl::forward(const torch::Tensor& x, const torch::Tensor& idx_in,
+                                         const torch::Tensor& normals) {
   OBM_ASSERT(x.dim() == 3 && x.size(1) == 3, "DenseEdgeConv expects points B×3×N");
+  OBM_ASSERT(normals.defined() == withNormals() &&
+                 (!normals.defined() || normals.sizes() == x.sizes()),
+             "DenseEdgeConv: normals B×3×N are required with edge normals, and only then");
   const auto idx = idx_in.defined() ? idx_in : knnIndices(x, x, k_);
   OBM_ASSERT(
       idx.dim() == 3 && idx.size(0) == x.size(0) && idx.size(1) == x.size(2) && idx.size(2) == k_,
       "DenseEdgeConv: neighbour graph has the wrong shape");
   if (!is_training() && !torch::GradMode::is_enabled() && x.device().is_cpu())
-    return forwardFused(x, idx);
-  return forwardLayered(x, idx);
+    return forwardFused(x, idx, normals);
+  return forwardLayered(x, idx, normals);
 }
 
-torch::Tensor DenseEdgeConvImpl::forwardLayered(const torch::Tensor& x, const torch::Tensor& idx) {
-  const auto e = edgeVectors(x, idx);  // B×3×N×k, only relative coordinates (translation invariant)
+torch::Tensor DenseEdgeConvImpl::forwardLayered(const torch::Tensor& x, const torch::Tensor& idx,
+                                                const torch::Tensor& normals) {
+  // B×E×N×k: relative coordinates (translation invariant), after [n_i, n_j − n_i] with normals.
+  auto e = edgeVectors(x, idx);
+  if (withNormals()) {
+    const auto dn = edgeVectors(normals, idx);
+    e = torch::cat({normals.unsqueeze(3).expand_as(dn), dn, e}, 1);
+  }
   const auto h1 = layer1_->forward(e);
   const auto h2 = layer2_->forward(torch::cat({e, h1}, 1));
   const auto h3 = layer3_->forward(torch::cat({e, h1, h2}, 1));
@@ -158,7 +188,8 @@ struct DenseEdgeConvImpl::FoldedCache {
   FoldedLayer out;
 };
 
-torch::Tensor DenseEdgeConvImpl::forwardFused(const torch::Tensor& x, const torch::Tensor& idx) {
+torch::Tensor DenseEdgeConvImpl::forwardFused(const torch::Tensor& x, const torch::Tensor& idx,
+                                              const torch::Tensor& normals) {
   const int64_t B = x.size(0), N = x.size(2), k = k_, L = k * N;
   auto key = foldKey({&layer1_, &layer2_, &layer3_, &layer4_, &out_});
   if (!folded_ || folded_->key != key) {
@@ -173,10 +204,11 @@ torch::Tensor DenseEdgeConvImpl::forwardFused(const torch::Tensor& x, const torc
   }
   const auto& layers = folded_->layers;
   const auto& out = folded_->out;
-  int64_t channels = 3;
+  const int64_t E = edge_channels_;
+  int64_t channels = E;
   for (const auto& l : layers) channels += l.W.size(0);
-  const int64_t pooled_channels = channels - 3;
-  // Rows: e (3), h1, h2, h3, h4; columns: edge (j, i) at j·N + i (neighbour rank j of point i).
+  const int64_t pooled_channels = channels - E;
+  // Rows: e (E), h1, h2, h3, h4; columns: edge (j, i) at j·N + i (neighbour rank j of point i).
   // Layer l reads rows [0, c_l) — exactly the concatenation [e, h1, …, h_{l−1}] of the layered
   // path — and writes its output into the next rows.
   if (!edge_buffer_.defined() || edge_buffer_.numel() < channels * L ||
@@ -188,10 +220,17 @@ torch::Tensor DenseEdgeConvImpl::forwardFused(const torch::Tensor& x, const torc
   for (int64_t b = 0; b < B; ++b) {
     const auto xb = x[b].contiguous();                       // 3×N
     const auto nbr = idx[b].t().contiguous().reshape({-1});  // k·N, neighbour-rank major
-    auto e = buffer.narrow(0, 0, 3);
+    auto e = buffer.narrow(0, E - 3, 3);
     torch::index_select_out(e, xb, 1, nbr);   // x_j
     e.view({3, k, N}).sub_(xb.unsqueeze(1));  // x_j − x_i
-    int64_t c = 3;
+    if (E > 3) {
+      const auto nbn = normals[b].contiguous();                                 // 3×N
+      buffer.narrow(0, 0, 3).view({3, k, N}).copy_(nbn.unsqueeze(1).expand({3, k, N}));  // n_i
+      auto dn = buffer.narrow(0, 3, 3);
+      torch::index_select_out(dn, nbn, 1, nbr);   // n_j
+      dn.view({3, k, N}).sub_(nbn.unsqueeze(1));  // n_j − n_i
+    }
+    int64_t c = E;
     for (const auto& l : layers) {
       const int64_t c_out = l.W.size(0);
       auto h = buffer.narrow(0, c, c_out);
@@ -199,7 +238,7 @@ torch::Tensor DenseEdgeConvImpl::forwardFused(const torch::Tensor& x, const torc
       h.relu_();
       c += c_out;
     }
-    const auto pooled = buffer.narrow(0, 3, pooled_channels).view({pooled_channels, k, N}).amax(1);
+    const auto pooled = buffer.narrow(0, E, pooled_channels).view({pooled_channels, k, N}).amax(1);
     features.push_back(torch::addmm(out.b, out.W, pooled).relu_());
   }
   return torch::stack(features, 0);

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iomanip>
 #include <optional>
+#include <regex>
 #include <sstream>
 
 #include "obm/config/config_node.hpp"
@@ -637,9 +638,21 @@ void Trainer::initializeFrom(const std::string& model_path) {
   // per point, e.g. a model trained with k1 = 5 can be warm-started with k1 = 16 for noisy data.
   const auto from_p = src->named_parameters(true);
   const auto from_b = src->named_buffers(true);
+  // The one shape change allowed: a model without edge normals warm-starts one with them. The
+  // EdgeConv layers' inputs then begin with the six normal channels ([n_i, n_j − n_i, x_j − x_i,
+  // h…]); their weights start at zero, so the warm-started network computes what the old one did.
+  const int64_t extra_edge_channels = I.model->config().edge_normals && !src->config().edge_normals
+                                          ? 6 : 0;
+  auto widened = [&](const std::string& key, const torch::Tensor& to, const torch::Tensor& f) {
+    static const std::regex layer_weight(R"(extractor\.layer[1-4]\.0\.weight)");
+    return extra_edge_channels > 0 && std::regex_match(key, layer_weight) && to.dim() == 4 &&
+           f.dim() == 4 && to.size(0) == f.size(0) &&
+           to.size(1) == f.size(1) + extra_edge_channels;
+  };
   auto check = [&](const std::string& key, const torch::Tensor& to,
                    const torch::OrderedDict<std::string, torch::Tensor>& from) {
     const torch::Tensor* f = from.find(key);
+    if (f != nullptr && widened(key, to, *f)) return;
     if (f == nullptr || f->sizes() != to.sizes())
       throw ConfigError(model_path + ": '" + key +
                         "' is missing or has another shape than in the training config's "
@@ -652,7 +665,15 @@ void Trainer::initializeFrom(const std::string& model_path) {
     OBM_LOG_WARN("obm-train", model_path << ": model settings differ from the training config's "
                                              "(same layer sizes); the config's are used");
   torch::NoGradGuard ng;
-  for (auto& kv : I.model->named_parameters(true)) kv.value().copy_(from_p[kv.key()]);
+  for (auto& kv : I.model->named_parameters(true)) {
+    const auto& f = from_p[kv.key()];
+    if (widened(kv.key(), kv.value(), f)) {
+      kv.value().zero_();
+      kv.value().narrow(1, extra_edge_channels, f.size(1)).copy_(f);
+    } else {
+      kv.value().copy_(f);
+    }
+  }
   for (auto& kv : I.model->named_buffers(true)) kv.value().copy_(from_b[kv.key()]);
   OBM_LOG_INFO("obm-train", "weights initialised from " << model_path);
 }

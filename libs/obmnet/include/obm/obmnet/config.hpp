@@ -57,6 +57,16 @@ struct ObmNetConfig {
   /// estimates yaw about z and a 3-D translation only (roll = pitch = 0), in closed form
   /// (weightedProcrustesYaw). Two free parameters fewer, and no roll/pitch error to learn.
   bool planar = false;
+  /// Surface normals in the EdgeConv's edge features: each edge (i, j) sees [n_i, n_j − n_i,
+  /// x_j − x_i] instead of x_j − x_i alone, n estimated per cloud from its `normal_neighbours`
+  /// nearest points and turned away from the cloud's centroid. Two independent samplings of one
+  /// surface place their points differently but agree on its normals, so these channels differ
+  /// less between the two clouds of a real pair than the neighbour offsets do. Recorded with the
+  /// weights. A model without them warm-starts one with them (the new input columns start at
+  /// zero, so the warm-started network computes what it did before).
+  bool edge_normals = false;
+  /// Neighbours (self included) of the normal estimate of `edge_normals`.
+  int normal_neighbours = 16;
   /// Input sampling at inference: voxel keypoints (obmnet::voxelKeypoints, the same cells in two
   /// scans of one place) instead of a random subset. Recorded with the weights so that inference
   /// samples as training did.

@@ -29,6 +29,14 @@ torch::Tensor gatherNeighbors(const torch::Tensor& x, const torch::Tensor& idx);
 /// B×C×N×k for `x` B×C×N and `idx` B×N×k.
 torch::Tensor edgeVectors(const torch::Tensor& x, const torch::Tensor& idx);
 
+/// Unit surface normals (B×3×N, no gradient) of the cloud `x` (B×3×N) from the neighbourhoods
+/// `idx` (B×N×k, k >= 3, the point itself included): the direction of least spread of each
+/// neighbourhood (smallest eigenvector of its covariance), turned to point away from the cloud's
+/// centroid. The sign rule moves with the cloud, so a rigid motion R, t turns the normals into
+/// R·n, and two samplings of one surface get the same sign wherever the surface faces away from
+/// the centre (everywhere on a convex object).
+torch::Tensor orientedNormals(const torch::Tensor& x, const torch::Tensor& idx);
+
 // ---------------------------------------------------------------------------------------------
 // Step 1: densely connected EdgeConv feature extractor
 // ---------------------------------------------------------------------------------------------
@@ -40,22 +48,32 @@ torch::Tensor edgeVectors(const torch::Tensor& x, const torch::Tensor& idx);
 /// maps are concatenated (256 channels) and a Conv1d + BN + ReLU maps them to emb_dims.
 class DenseEdgeConvImpl : public torch::nn::Module {
  public:
-  DenseEdgeConvImpl(int64_t k, int64_t emb_dims);
+  /// `with_normals`: the edge features are [n_i, n_j − n_i, x_j − x_i] (9 channels, the normals
+  /// first) instead of x_j − x_i (ObmNetConfig::edge_normals).
+  DenseEdgeConvImpl(int64_t k, int64_t emb_dims, bool with_normals = false);
   /// `x`: B×3×N points → B×emb_dims×N features. `idx` (optional, B×N×k): a precomputed k-NN graph
-  /// of `x`; when undefined it is computed here.
-  torch::Tensor forward(const torch::Tensor& x, const torch::Tensor& idx = {});
+  /// of `x`; when undefined it is computed here. `normals` (B×3×N): required with normals, and
+  /// only then.
+  torch::Tensor forward(const torch::Tensor& x, const torch::Tensor& idx = {},
+                        const torch::Tensor& normals = {});
   int64_t k() const { return k_; }
+  bool withNormals() const { return edge_channels_ > 3; }
+  /// Channels of one edge feature: 3, or 9 with normals.
+  int64_t edgeChannels() const { return edge_channels_; }
   /// The same features by the layer-by-layer path of training, also in eval mode without
   /// gradients (where forward() takes the fused inference path): the reference of its test.
-  torch::Tensor forwardLayered(const torch::Tensor& x, const torch::Tensor& idx);
+  torch::Tensor forwardLayered(const torch::Tensor& x, const torch::Tensor& idx,
+                               const torch::Tensor& normals = {});
 
  private:
   /// Eval mode without gradients: batch normalisation folded into each 1×1 convolution, every
   /// layer's output written into one edge buffer (no concatenation), neighbours laid out k-major
   /// so the max over them is a vectorised reduction. Same result as forwardLayered to float
   /// rounding; about half of an inference pass was spent in the copies this avoids.
-  torch::Tensor forwardFused(const torch::Tensor& x, const torch::Tensor& idx);
+  torch::Tensor forwardFused(const torch::Tensor& x, const torch::Tensor& idx,
+                             const torch::Tensor& normals);
   int64_t k_;
+  int64_t edge_channels_;
   torch::nn::Sequential layer1_{nullptr}, layer2_{nullptr}, layer3_{nullptr}, layer4_{nullptr};
   torch::nn::Sequential out_{nullptr};
   /// Inference state of forwardFused (the module is not re-entrant, like the rest of ObmNet):
