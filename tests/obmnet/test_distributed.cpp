@@ -12,6 +12,7 @@
 #include "obm/core/errors.hpp"
 #include "obm/obmnet/collectives.hpp"
 #include "obm/obmnet/distributed.hpp"
+#include "obm/obmnet/model_io.hpp"
 #include "obm/obmnet/trainer.hpp"
 #include "small_training.hpp"
 #include "test_data.hpp"
@@ -194,12 +195,17 @@ TEST(Distributed, TwoRanksTrainOneModelAndAnotherWorldSizeResumes) {
   EXPECT_DOUBLE_EQ(stats[0][0].val_mie_r, stats[1][0].val_mie_r);
   for (const char* f : {"checkpoint.pt", "best.pt", "train_log.csv", "config.yaml"})
     EXPECT_TRUE(std::filesystem::exists(dir + "/run/" + f)) << f;
-  // One process resumes the two-rank run for a second epoch.
+  // One process resumes the two-rank run for a second epoch, now keeping every epoch's model.
   tc.epochs = 2;
+  tc.save_epochs = true;
   Trainer single(tc, clouds, clouds, dir + "/run");
   const auto s = single.run(true);
   ASSERT_EQ(s.size(), 1u);
   EXPECT_EQ(s[0].epoch, 2);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/run/epoch_001.pt")) << "epoch 1 ran without it";
+  ModelMeta meta;
+  ASSERT_NO_THROW(loadModel(dir + "/run/epoch_002.pt", &meta));
+  EXPECT_EQ(meta.description.rfind("epoch 2,", 0), 0u) << meta.description;
   EXPECT_GT(s[0].comm_ms_per_step, -1.0);
   EXPECT_EQ(s[0].comm_ms_per_step, 0.0) << "a single process has no collectives";
 }

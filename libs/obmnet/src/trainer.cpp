@@ -35,7 +35,7 @@ TrainConfig TrainConfig::load(const ConfigNode& root) {
   t.checkKeys({"pairs", "val_pairs_protocol", "batch_size", "epochs", "pairs_per_epoch",
                "val_pairs", "lr", "weight_decay", "lr_steps", "lr_gamma", "normalize_radius",
                "recall_deg", "recall_trans", "max_grad_norm", "threads", "seed", "max_hours",
-               "curriculum_epochs", "curriculum_start", "device", "pose_loss_weight",
+               "save_epochs", "curriculum_epochs", "curriculum_start", "device", "pose_loss_weight",
                "loss_weights", "select_on", "inlier_radius", "match_loss_weight", "teacher"});
   c.protocol = PairProtocol::load(t.child("pairs"));
   c.val_protocol =
@@ -56,6 +56,7 @@ TrainConfig TrainConfig::load(const ConfigNode& root) {
   t.get("threads", c.threads);
   t.get("seed", c.seed);
   t.get("max_hours", c.max_hours);
+  t.get("save_epochs", c.save_epochs);
   t.get("curriculum_epochs", c.curriculum_epochs);
   t.get("curriculum_start", c.curriculum_start);
   t.get("device", c.device);
@@ -935,7 +936,7 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
       best = score;
       s.best = true;
     }
-    if (s.best && writer) {
+    if ((s.best || I.cfg.save_epochs) && writer) {
       ModelMeta meta;
       meta.normalize_radius = I.cfg.normalize_radius;
       // The points per cloud *before* a partial crop: inference samples clouds larger than this
@@ -946,7 +947,12 @@ std::vector<EpochStats> Trainer::run(bool resume, const std::function<bool()>& s
       meta.description =
           "epoch " + std::to_string(epoch) + ", val MIE(R) " + std::to_string(v.mie_r) +
           " deg, MIE(t) " + std::to_string(v.mie_t);
-      saveModel(I.out + "/best.pt", I.model, meta);
+      if (s.best) saveModel(I.out + "/best.pt", I.model, meta);
+      if (I.cfg.save_epochs) {
+        std::ostringstream name;
+        name << I.out << "/epoch_" << std::setw(3) << std::setfill('0') << epoch << ".pt";
+        saveModel(name.str(), I.model, meta);
+      }
     }
     std::ostringstream st;
     st << std::setprecision(4) << "loss " << s.loss << "  val MIE(R) " << v.mie_r << " deg  recall "

@@ -48,6 +48,10 @@ struct TrainConfig {
   int threads = 2;                ///< intra-op threads (torch::set_num_threads)
   std::uint64_t seed = 1;         ///< seeds weights, pair generation and Gumbel noise
   double max_hours = 0.0;         ///< stop (with a checkpoint) after this wall time; 0 = no limit
+  /// Also write every epoch's model as OUT/epoch_NNN.pt. best.pt is chosen on the validation
+  /// pairs, whose mean rotation error over a few dozen pairs moves by several degrees between
+  /// draws of the pairs; keeping every epoch lets a larger benchmark choose instead.
+  bool save_epochs = false;
   /// Epochs over which the training pairs go from clean to `protocol` (crop and jitter ramped up
   /// linearly; see curriculumProtocol). Learning to match from scratch on partial, noisy pairs
   /// is slow; on identical points it is immediate, and the features carry over.
