@@ -46,19 +46,24 @@ torch::Tensor edgeVectors(const torch::Tensor& x, const torch::Tensor& idx) {
   return gatherNeighbors(x, idx) - x.unsqueeze(3);
 }
 
-torch::Tensor orientedNormals(const torch::Tensor& x, const torch::Tensor& idx) {
+torch::Tensor pcaNormals(const torch::Tensor& x, const torch::Tensor& idx) {
   OBM_ASSERT(x.dim() == 3 && x.size(1) == 3 && idx.dim() == 3 && idx.size(0) == x.size(0) &&
                  idx.size(1) == x.size(2) && idx.size(2) >= 3,
-             "orientedNormals expects points B×3×N and neighbours B×N×k with k >= 3");
+             "pcaNormals expects points B×3×N and neighbours B×N×k with k >= 3");
   torch::NoGradGuard no_grad;
-  const auto nb = gatherNeighbors(x.detach(), idx);                   // B×3×N×k
-  const auto a = (nb - nb.mean(3, true)).permute({0, 2, 1, 3});      // B×N×3×k
+  const auto nb = gatherNeighbors(x.detach(), idx);                        // B×3×N×k
+  const auto a = (nb - nb.mean(3, true)).permute({0, 2, 1, 3});           // B×N×3×k
   const auto C = torch::matmul(a, a.transpose(2, 3)).to(torch::kFloat64);  // B×N×3×3
   // Eigenvalues ascending: the first eigenvector spans the direction of least spread.
-  auto n = std::get<1>(torch::linalg_eigh(C)).select(3, 0).to(x.scalar_type());  // B×N×3
-  n = n.permute({0, 2, 1});                                                     // B×3×N
+  const auto n = std::get<1>(torch::linalg_eigh(C)).select(3, 0);  // B×N×3
+  return n.to(x.scalar_type()).permute({0, 2, 1}).contiguous();    // B×3×N
+}
+
+torch::Tensor orientedNormals(const torch::Tensor& x, const torch::Tensor& idx) {
+  const auto n = pcaNormals(x, idx);
+  torch::NoGradGuard no_grad;
   // Away from the centroid; a point exactly at it keeps the solver's sign.
-  const auto outward = (x.detach() - x.detach().mean(2, true));
+  const auto outward = x.detach() - x.detach().mean(2, true);
   const auto sign = torch::where((n * outward).sum(1, true) < 0, -1.0, 1.0).to(n.scalar_type());
   return (n * sign).contiguous();
 }

@@ -32,13 +32,7 @@ void checkShapes(const torch::Tensor& src, const torch::Tensor& tgt, const char*
 torch::Tensor estimateNormals(const torch::Tensor& points, int k) {
   OBM_ASSERT(points.dim() == 3 && points.size(1) == 3 && k >= 3 && points.size(2) >= k,
              "estimateNormals expects B×3×M points with M >= k >= 3");
-  torch::NoGradGuard ng;
-  const auto nb = gatherNeighbors(points, knnIndices(points, points, k));  // B×3×M×k
-  const auto a = (nb - nb.mean(3, true)).permute({0, 2, 1, 3});            // B×M×3×k
-  const auto C = torch::matmul(a, a.transpose(2, 3));                      // B×M×3×3
-  // Eigenvalues ascending: the first eigenvector is the normal.
-  const auto eig = torch::linalg_eigh(C.to(torch::kFloat64));
-  return std::get<1>(eig).select(3, 0).to(points.scalar_type()).permute({0, 2, 1}).contiguous();
+  return pcaNormals(points, knnIndices(points, points, k));
 }
 
 namespace {

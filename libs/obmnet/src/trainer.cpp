@@ -664,7 +664,7 @@ void Trainer::initializeFrom(const std::string& model_path) {
   for (const auto& kv : I.model->named_buffers(true)) check(kv.key(), kv.value(), from_b);
   if (src->config().toYaml() != I.model->config().toYaml())
     OBM_LOG_WARN("obm-train", model_path << ": model settings differ from the training config's "
-                                             "(same layer sizes); the config's are used");
+                                             "(compatible layer sizes); the config's are used");
   torch::NoGradGuard ng;
   for (auto& kv : I.model->named_parameters(true)) {
     const auto& f = from_p[kv.key()];

@@ -29,6 +29,11 @@ torch::Tensor gatherNeighbors(const torch::Tensor& x, const torch::Tensor& idx);
 /// B×C×N×k for `x` B×C×N and `idx` B×N×k.
 torch::Tensor edgeVectors(const torch::Tensor& x, const torch::Tensor& idx);
 
+/// Unit surface normals (B×3×N, no gradient, either sign) of the cloud `x` (B×3×N) from the
+/// neighbourhoods `idx` (B×N×k, k >= 3): the smallest eigenvector of each neighbourhood's
+/// covariance.
+torch::Tensor pcaNormals(const torch::Tensor& x, const torch::Tensor& idx);
+
 /// Unit surface normals (B×3×N, no gradient) of the cloud `x` (B×3×N) from the neighbourhoods
 /// `idx` (B×N×k, k >= 3, the point itself included): the direction of least spread of each
 /// neighbourhood (smallest eigenvector of its covariance), turned to point away from the cloud's

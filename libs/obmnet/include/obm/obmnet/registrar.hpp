@@ -121,7 +121,7 @@ class ObmNetRegistrar {
     /// from the identity, the start that aligns more points kept). Measures on benchmark pairs
     /// what training hands the network; off by default.
     bool teacher_refine = false;
-    TeacherParams teacher;
+    TeacherParams teacher{};
   };
 
   /// Loads the model. A missing, corrupt or mismatched file throws IoError / FormatError naming it.
