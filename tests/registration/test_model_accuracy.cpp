@@ -92,11 +92,17 @@ RealPair realOutdoorPair() {
 
 }  // namespace
 
-TEST(ModelAccuracy, ObjectModelOnIndependentSamplingsOfUnseenObjects) {
+namespace {
+
+/// Rotation errors [deg] of an object model alone (no ICP) and of the identity on the same eight
+/// `resampled` pairs of unseen objects (independent samplings, 768-point crops, ≤ 45°), printed
+/// per pair. Empty when the meshes are not at hand ($OBM_CGAL_DATA unset).
+struct ObjectErrors {
+  std::vector<double> network, identity;
+};
+ObjectErrors objectModelOnUnseenPairs(const std::string& model) {
   const char* env = std::getenv("OBM_CGAL_DATA");
-  // scripts/test.sh fetches the meshes; where Debian's archive is out of reach it goes on
-  // without them, as the other tests on real meshes do.
-  if (env == nullptr) GTEST_SKIP() << "OBM_CGAL_DATA not set (scripts/get_cgal_meshes.sh)";
+  if (env == nullptr) return {};
   std::vector<TriangleMesh> meshes;
   for (const auto& e : std::filesystem::directory_iterator(env))
     if (e.path().extension() == ".off") {
@@ -108,33 +114,60 @@ TEST(ModelAccuracy, ObjectModelOnIndependentSamplingsOfUnseenObjects) {
   obmnet::ObjectSetOptions o;
   o.keep_points = 2048;  // every sample: the pairs are disjoint halves
   const auto set = obmnet::buildObjectSet(meshes, o);
-  ASSERT_GE(set.test.size(), 8u);
+  EXPECT_GE(set.test.size(), 8u);
+  if (set.test.size() < 8u) return {};
   const auto proto = obmnet::PairProtocol::preset("resampled");
   std::mt19937_64 rng(1);
   obmnet::ObmNetRegistrar::Options ro;
-  ro.model_path = kModels + "obmnet_objects_resampled.pt";
+  ro.model_path = model;
   ro.threads = 1;
   ro.num_points = 768;
   const obmnet::ObmNetRegistrar net(ro);
-  std::vector<double> net_rre, identity_rre;
+  ObjectErrors e;
   for (int i = 0; i < 8; ++i) {
-    const auto pair = obmnet::makePair(set.test[static_cast<std::size_t>(i)], proto, rng);
+    const auto& object = set.test[static_cast<std::size_t>(i)];
+    const auto pair = obmnet::makePair(object, proto, rng);
     const auto r = net.align(pair.source, pair.target);
-    net_rre.push_back(rreDeg(r.T_target_source, pair.T_target_source));
-    identity_rre.push_back(rreDeg(Isometry3d::Identity(), pair.T_target_source));
-    std::printf("%s: network RRE %.2f deg, RTE %.3f\n", set.test[static_cast<std::size_t>(i)].frame_id.c_str(),
-                net_rre.back(), rte(r.T_target_source, pair.T_target_source));
+    e.network.push_back(rreDeg(r.T_target_source, pair.T_target_source));
+    e.identity.push_back(rreDeg(Isometry3d::Identity(), pair.T_target_source));
+    std::printf("%s: network RRE %.2f deg, RTE %.3f; identity RRE %.2f deg\n",
+                object.frame_id.c_str(), e.network.back(),
+                rte(r.T_target_source, pair.T_target_source), e.identity.back());
   }
-  auto median = [](std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
-  };
-  // Measured with the shipped model (epoch 19): median 22.6° against the identity's (the pairs' own
-  // rotation) — far from the ≤ 2° the model is meant to reach (its model card), but a model that
-  // learnt nothing on independent samplings stays at the identity or worse (the shared-sample
-  // model obmnet_objects.pt: MIE(R) 124° on these pairs).
-  EXPECT_LT(median(net_rre), 0.85 * median(identity_rre))
-      << "median network RRE " << median(net_rre) << "°, identity " << median(identity_rre) << "°";
+  return e;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
+
+}  // namespace
+
+// scripts/test.sh fetches the meshes; where Debian's archive is out of reach it goes on without
+// them, as the other tests on real meshes do.
+TEST(ModelAccuracy, ObjectModelOnIndependentSamplingsOfUnseenObjects) {
+  const auto e = objectModelOnUnseenPairs(kModels + "obmnet_objects_resampled.pt");
+  if (e.network.empty()) GTEST_SKIP() << "OBM_CGAL_DATA not set (scripts/get_cgal_meshes.sh)";
+  // Measured with the shipped model (epoch 19): median 22.6° against the identity's 47.4° (the
+  // pairs' own rotation) — far from the ≤ 2° the model is meant to reach (its model card), but a
+  // model that learnt nothing on independent samplings stays at the identity or worse (the
+  // shared-sample model obmnet_objects.pt: MIE(R) 124° on these pairs).
+  EXPECT_LT(median(e.network), 0.85 * median(e.identity))
+      << "median network RRE " << median(e.network) << "°, identity " << median(e.identity) << "°";
+}
+
+TEST(ModelAccuracy, EdgeNormalsModelOnIndependentSamplingsOfUnseenObjects) {
+  const auto e = objectModelOnUnseenPairs(kModels + "obmnet_objects_normals.pt");
+  if (e.network.empty()) GTEST_SKIP() << "OBM_CGAL_DATA not set (scripts/get_cgal_meshes.sh)";
+  // Measured with the shipped model (epoch 7): median 18.6° against the identity's 47.4° (0.39×;
+  // obmnet_objects_resampled.pt: 22.6°, 0.48×), three of the eight pairs within 10° by the
+  // network alone (1.1°, 4.0°, 4.3°; obmnet_objects_resampled.pt: one).
+  int close = 0;
+  for (double r : e.network) close += r < 10.0 ? 1 : 0;
+  EXPECT_LT(median(e.network), 0.5 * median(e.identity))
+      << "median network RRE " << median(e.network) << "°, identity " << median(e.identity) << "°";
+  EXPECT_GE(close, 3) << "pairs the network alone brings within 10°";
 }
 
 TEST(ModelAccuracy, LidarModelOnTheRealOutdoorPair) {
