@@ -642,8 +642,8 @@ void Trainer::initializeFrom(const std::string& model_path) {
   // The one shape change allowed: a model without edge normals warm-starts one with them. The
   // EdgeConv layers' inputs then begin with the six normal channels ([n_i, n_j − n_i, x_j − x_i,
   // h…]); their weights start at zero, so the warm-started network computes what the old one did.
-  const int64_t extra_edge_channels = I.model->config().edge_normals && !src->config().edge_normals
-                                          ? 6 : 0;
+  const bool adds_normals = I.model->config().edge_normals && !src->config().edge_normals;
+  const int64_t extra_edge_channels = adds_normals ? 6 : 0;
   auto widened = [&](const std::string& key, const torch::Tensor& to, const torch::Tensor& f) {
     static const std::regex layer_weight(R"(extractor\.layer[1-4]\.0\.weight)");
     return extra_edge_channels > 0 && std::regex_match(key, layer_weight) && to.dim() == 4 &&

@@ -47,10 +47,11 @@ torch::Tensor orientedNormals(const torch::Tensor& x, const torch::Tensor& idx);
 // ---------------------------------------------------------------------------------------------
 
 /// Densely connected EdgeConv (DGCNN-style, RIENet's extractor). Per edge only the relative
-/// coordinate x_j − x_i over the k1-NN graph enters. Four 1×1 Conv2d layers 3→32→32→64→128 with
-/// BN + ReLU; each layer sees the edge vectors and all previous layers' edge features
-/// (dense connectivity). Each layer's output is max-pooled over the k neighbours; the four pooled
-/// maps are concatenated (256 channels) and a Conv1d + BN + ReLU maps them to emb_dims.
+/// coordinate x_j − x_i over the k1-NN graph enters (with edge normals also n_i and n_j − n_i).
+/// Four 1×1 Conv2d layers E→32→32→64→128 (E = 3 or 9) with BN + ReLU; each layer sees the edge
+/// features and all previous layers' edge features (dense connectivity). Each layer's output is
+/// max-pooled over the k neighbours; the four pooled maps are concatenated (256 channels) and a
+/// Conv1d + BN + ReLU maps them to emb_dims.
 class DenseEdgeConvImpl : public torch::nn::Module {
  public:
   /// `with_normals`: the edge features are [n_i, n_j − n_i, x_j − x_i] (9 channels, the normals
@@ -84,8 +85,8 @@ class DenseEdgeConvImpl : public torch::nn::Module {
   /// Inference state of forwardFused (the module is not re-entrant, like the rest of ObmNet):
   /// the folded layers, refolded only when a weight or statistic they came from has changed
   /// (another tensor, or an in-place update such as an optimiser step or a model load), and
-  /// the edge buffer (259 × k·N floats, 34 MB at k = 32, N = 1024), kept between calls because
-  /// above 32 MB glibc would map and unmap it on every call.
+  /// the edge buffer ((E + 256) × k·N floats, 34 MB at E = 3, k = 32, N = 1024), kept between
+  /// calls because above 32 MB glibc would map and unmap it on every call.
   struct FoldedCache;
   std::shared_ptr<FoldedCache> folded_;
   torch::Tensor edge_buffer_;
