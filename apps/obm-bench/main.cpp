@@ -65,12 +65,12 @@ bench::Method obmnetMethod(const std::string& name, const NetRun& net, bool keep
   o.select_by_consensus = net.by_consensus;
   o.keep_start_if_fitter = keep_start;
   if (net.teacher_refine) {
-    // As config/obmnet/train_objects_selftrain_plane.yaml's teacher, every pair refined.
+    // The teacher of the point-to-plane self-training config, read from it; every pair refined.
     o.teacher_refine = true;
-    o.teacher.point_to_plane = true;
-    o.teacher.initial_max_distance = 0.2;
-    o.teacher.max_distance = 0.07;
-    o.teacher.match_radius = 0.07;
+    o.teacher = obmnet::TeacherParams::load(
+        ConfigNode::loadFile(apps::findConfigFile("obmnet/train_objects_selftrain_plane.yaml"))
+            .child("train")
+            .child("teacher"));
   }
   auto reg = std::make_shared<obmnet::ObmNetRegistrar>(o);
   return {name, [reg](const PointCloud& s, const PointCloud& t) {

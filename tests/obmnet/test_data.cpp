@@ -59,6 +59,19 @@ obmnet::ObmNet saveSmallModel(const std::string& path, std::uint64_t seed, int n
   return net;
 }
 
+/// A trainer of `model` on 64-point pairs of one 128-point sphere, with `val_pairs` validation
+/// pairs, writing into `out`.
+std::unique_ptr<Trainer> sphereTrainer(const obmnet::ObmNetConfig& model, int val_pairs,
+                                       const std::string& out) {
+  TrainConfig tc;
+  tc.model = model;
+  tc.protocol.num_points = 64;
+  tc.val_protocol.num_points = 64;
+  tc.val_pairs = val_pairs;
+  std::vector<PointCloud> clouds{sphereCloud(128, 21)};
+  return std::make_unique<Trainer>(tc, clouds, clouds, out);
+}
+
 /// An untrained model for the registrar tests, written to DIR/m.pt: `c` at width 16 with 8 overlap
 /// draws, 96 points per cloud, weights drawn from `seed`.
 std::string saveRegistrarModel(const std::string& dir, obmnet::ObmNetConfig c, std::uint64_t seed) {
@@ -325,13 +338,7 @@ TEST(Trainer, WarmStartNeedsTheSameLayerShapesOnly) {
   const std::string dir = obm::test::scratchDir("obmnet_warm_start");
   const obmnet::ObmNetConfig c = saveSmallModel(dir + "/m.pt", 5, 16)->config();
   auto trainerWith = [&](const obmnet::ObmNetConfig& mc) {
-    TrainConfig tc;
-    tc.model = mc;
-    tc.protocol.num_points = 64;
-    tc.val_protocol.num_points = 64;
-    tc.val_pairs = 1;
-    std::vector<PointCloud> clouds{sphereCloud(128, 21)};
-    return std::make_unique<Trainer>(tc, clouds, clouds, dir + "/run");
+    return sphereTrainer(mc, 1, dir + "/run");
   };
   // Wider neighbourhoods change no layer shape: the weights carry over.
   obmnet::ObmNetConfig wider = c;
@@ -355,13 +362,7 @@ TEST(Trainer, AModelWithoutEdgeNormalsWarmStartsOneWithThemUnchanged) {
   obmnet::ObmNetConfig plain = saveSmallModel(dir + "/m.pt", 7, 16)->config();
   plain.k1 = 12;  // normals from 12 neighbours of the 64 points
   auto trainerWith = [&](const obmnet::ObmNetConfig& mc, const std::string& run) {
-    TrainConfig tc;
-    tc.model = mc;
-    tc.protocol.num_points = 64;
-    tc.val_protocol.num_points = 64;
-    tc.val_pairs = 3;
-    std::vector<PointCloud> clouds{sphereCloud(128, 21)};
-    return std::make_unique<Trainer>(tc, clouds, clouds, dir + "/" + run);
+    return sphereTrainer(mc, 3, dir + "/" + run);
   };
   obmnet::ObmNetConfig with_normals = plain;
   with_normals.edge_normals = true;
