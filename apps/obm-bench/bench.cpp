@@ -118,6 +118,7 @@ std::vector<MethodScores> runBenchmark(const std::vector<obmnet::RegistrationPai
       s.per_pair_ms.push_back(ms);
       s.per_pair_failed.push_back(failed);
       s.per_pair_scores.push_back(std::move(conf));
+      s.per_pair_T.push_back(T);
       bar.tick();
     }
     s.summary = acc.summary();
@@ -128,6 +129,49 @@ std::vector<MethodScores> runBenchmark(const std::vector<obmnet::RegistrationPai
     out.push_back(s);
   }
   return out;
+}
+
+void scoreSurfaces(const std::vector<obmnet::RegistrationPair>& pairs,
+                   const std::vector<const eval::SurfaceErrorScorer*>& scorer_of_pair,
+                   std::vector<MethodScores>& scores) {
+  OBM_ASSERT(scorer_of_pair.size() == pairs.size(), "scoreSurfaces: one scorer per pair");
+  for (auto& s : scores) {
+    s.per_pair_surface.resize(pairs.size());
+    for (std::size_t i = 0; i < pairs.size(); ++i)
+      s.per_pair_surface[i] = scorer_of_pair[i]->error(s.per_pair_T.at(i), pairs[i].T_target_source);
+  }
+}
+
+namespace {
+
+double recallUpToSymmetry(const MethodScores& s, double max_surface_error) {
+  std::size_t ok = 0;
+  for (std::size_t i = 0; i < s.per_pair_surface.size(); ++i)
+    ok += !s.per_pair_failed[i] && s.per_pair_surface[i] < max_surface_error ? 1 : 0;
+  return s.per_pair_surface.empty()
+             ? 0.0
+             : static_cast<double>(ok) / static_cast<double>(s.per_pair_surface.size());
+}
+
+}  // namespace
+
+std::string surfaceTable(const std::vector<MethodScores>& scores,
+                         const eval::RecallThresholds& recall, double max_surface_error) {
+  std::ostringstream os;
+  char buf[320];
+  std::snprintf(buf, sizeof(buf),
+                "| method | recall (RRE < %g°, RTE < %g) | recall up to symmetry (surface error "
+                "< %g) | median surface error |\n|---|---:|---:|---:|\n",
+                recall.max_rre_deg, recall.max_rte, max_surface_error);
+  os << buf;
+  for (const auto& s : scores) {
+    if (s.per_pair_surface.empty()) continue;
+    std::snprintf(buf, sizeof(buf), "| %s | %.1f %% | %.1f %% | %.5f |\n", s.name.c_str(),
+                  100.0 * s.summary.recall, 100.0 * recallUpToSymmetry(s, max_surface_error),
+                  eval::median(s.per_pair_surface));
+    os << buf;
+  }
+  return os.str();
 }
 
 std::vector<ConfidenceRating> rateConfidences(const std::vector<MethodScores>& scores,
@@ -199,7 +243,8 @@ std::string markdownTable(const std::vector<MethodScores>& scores, const std::st
 
 std::string jsonReport(std::size_t n_pairs, const std::vector<MethodScores>& scores,
                        const eval::RecallThresholds& recall, const std::string& info,
-                       const std::vector<ConfidenceRating>& ratings) {
+                       const std::vector<ConfidenceRating>& ratings,
+                       double max_surface_error) {
   nlohmann::json j;
   j["pairs"] = n_pairs;
   j["recall_thresholds"] = {{"max_rre_deg", recall.max_rre_deg}, {"max_rte", recall.max_rte}};
@@ -212,7 +257,12 @@ std::string jsonReport(std::size_t n_pairs, const std::vector<MethodScores>& sco
         {"mie_t", r.mie_t},     {"recall", r.recall},    {"median_ms", r.median_ms},
         {"rmse_r", r.rmse_r},   {"rmse_t", r.rmse_t},    {"median_rre_deg", r.median_rre_deg},
         {"mean_ms", r.mean_ms}, {"failures", s.failures}};
+    if (max_surface_error > 0.0 && !s.per_pair_surface.empty()) {
+      methods[s.name]["recall_up_to_symmetry"] = recallUpToSymmetry(s, max_surface_error);
+      methods[s.name]["median_surface_error"] = eval::median(s.per_pair_surface);
+    }
   }
+  if (max_surface_error > 0.0) j["max_surface_error"] = max_surface_error;
   j["methods"] = methods;
   nlohmann::json conf = nlohmann::json::array();
   for (const auto& r : ratings)
@@ -242,6 +292,7 @@ std::string perPairCsv(const std::vector<obmnet::RegistrationPair>& pairs,
     const auto& s = scores[m];
     os << ',' << s.name << "_rre_deg," << s.name << "_rte," << s.name << "_ms," << s.name
        << "_ok";
+    if (!s.per_pair_surface.empty()) os << ',' << s.name << "_surface";
     for (const auto& n : score_names[m]) os << ',' << s.name << '_' << n;
   }
   os << '\n';
@@ -257,6 +308,10 @@ std::string perPairCsv(const std::vector<obmnet::RegistrationPair>& pairs,
       std::snprintf(buf, sizeof(buf), ",%.6g,%.6g,%.2f,%d", e.rre_deg, e.rte, s.per_pair_ms.at(i),
                     ok ? 1 : 0);
       os << buf;
+      if (!s.per_pair_surface.empty()) {
+        std::snprintf(buf, sizeof(buf), ",%.6g", s.per_pair_surface.at(i));
+        os << buf;
+      }
       for (const auto& n : score_names[m]) {
         os << ',';
         for (const auto& kv : s.per_pair_scores.at(i))

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "obm/eval/registration_metrics.hpp"
+#include "obm/eval/shape_error.hpp"
 #include "obm/obmnet/data.hpp"
 #include "peers.hpp"
 
@@ -30,7 +31,22 @@ struct MethodScores {
   std::vector<bool> per_pair_failed;
   /// Per pair, the method's confidence scores (MethodResult::scores), in the pairs' order.
   std::vector<std::vector<std::pair<std::string, double>>> per_pair_scores;
+  /// Per pair, the estimate (the identity where the method threw).
+  std::vector<Isometry3d> per_pair_T;
+  /// Per pair, the surface error of the estimate (scoreSurfaces); empty when not scored.
+  std::vector<double> per_pair_surface;
 };
+
+/// Scores every method's estimate of every pair up to the object's symmetries:
+/// `scorer_of_pair[i]` is the scorer of the object pair i was cut from (its source frame).
+void scoreSurfaces(const std::vector<obmnet::RegistrationPair>& pairs,
+                   const std::vector<const eval::SurfaceErrorScorer*>& scorer_of_pair,
+                   std::vector<MethodScores>& scores);
+
+/// Per method: the recall, the recall up to symmetry (surface error below `max_surface_error`)
+/// and the median surface error, as a Markdown table. Needs scoreSurfaces.
+std::string surfaceTable(const std::vector<MethodScores>& scores,
+                         const eval::RecallThresholds& recall, double max_surface_error);
 
 /// How well one confidence score of one method separates its correct registrations (within the
 /// recall thresholds) from its wrong ones.
@@ -56,13 +72,16 @@ std::vector<MethodScores> runBenchmark(const std::vector<obmnet::RegistrationPai
 std::string markdownTable(const std::vector<MethodScores>& scores, const std::string& title);
 
 /// {"pairs": N, "methods": {"name": {"mae_r": …, "mae_t": …, "mie_r": …, "mie_t": …, "recall": …,
-/// "median_ms": …}, …}} plus the recall thresholds and free-form `info`.
+/// "median_ms": …}, …}} plus the recall thresholds and free-form `info`; with surface errors
+/// (max_surface_error > 0) also "recall_up_to_symmetry" and "median_surface_error" per method.
 std::string jsonReport(std::size_t n_pairs, const std::vector<MethodScores>& scores,
                        const eval::RecallThresholds& recall, const std::string& info,
-                       const std::vector<ConfidenceRating>& ratings = {});
+                       const std::vector<ConfidenceRating>& ratings = {},
+                       double max_surface_error = 0.0);
 
 /// One row per pair: `pair,name,overlap` then, per method, `<m>_rre_deg,<m>_rte,<m>_ms,<m>_ok`
-/// (ok = within the recall thresholds; a method that threw has ok 0 and its identity errors).
+/// (ok = within the recall thresholds; a method that threw has ok 0 and its identity errors),
+/// `<m>_surface` when surface errors were scored, then the method's confidence scores.
 std::string perPairCsv(const std::vector<obmnet::RegistrationPair>& pairs,
                        const std::vector<MethodScores>& scores,
                        const eval::RecallThresholds& recall);

@@ -103,6 +103,54 @@ TEST(PairProtocol, CleanPairIsExactlyTheTransformedSource) {
   EXPECT_LE(p.T_target_source.translation().cwiseAbs().maxCoeff(), 0.5);
 }
 
+TEST(PairProtocol, ScaleAugmentMakesNewShapesOfTheSameRadiusAndKeepsThePairExact) {
+  const auto obj = sphereCloud(1500, 1);
+  auto proto = PairProtocol::preset("clean");
+  proto.scale_augment = 0.3;
+  std::mt19937_64 rng(3);
+  const auto p = makePair(obj, proto, rng);
+  const auto q = makePair(obj, proto, rng);
+  // The unit sphere became an ellipsoid of the same radius: the distances to the centre spread
+  // (a sphere's are all 1), the farthest is still ≈ 1.
+  Vector3f c = Vector3f::Zero();
+  for (const auto& s : p.source.points) c += s;
+  c /= static_cast<float>(p.source.size());
+  float rmin = 1e9f, rmax = 0.0f;
+  for (const auto& s : p.source.points) {
+    rmin = std::min(rmin, (s - c).norm());
+    rmax = std::max(rmax, (s - c).norm());
+  }
+  EXPECT_GT(rmax - rmin, 0.1f);
+  EXPECT_NEAR(rmax, 1.0f, 0.06f);  // about the subset's centroid, not the full cloud's
+  // The target is still exactly the transformed source: one shape per pair.
+  double worst = 0.0;
+  for (const auto& t : p.target.points) {
+    double best = 1e9;
+    for (const auto& s : p.source.points)
+      best = std::min(best, (p.T_target_source * s.cast<double>() - t.cast<double>()).norm());
+    worst = std::max(worst, best);
+  }
+  EXPECT_LT(worst, 1e-5);
+  // Each pair draws its own shape.
+  auto extent = [](const PointCloud& cl) {
+    Vector3f lo = cl.points[0], hi = cl.points[0];
+    for (const auto& s : cl.points) {
+      lo = lo.cwiseMin(s);
+      hi = hi.cwiseMax(s);
+    }
+    return Vector3f(hi - lo);
+  };
+  EXPECT_GT((extent(p.source) - extent(q.source)).norm(), 0.05f);
+  // Out-of-range values are refused naming the key.
+  const auto bad = ConfigNode::fromString("preset: resampled\nscale_augment: 0.8\n", "t.yaml");
+  try {
+    PairProtocol::load(bad);
+    FAIL() << "expected ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("scale_augment"), std::string::npos) << e.what();
+  }
+}
+
 TEST(PairProtocol, PartialCropRecordsOverlapAndSizes) {
   const auto obj = sphereCloud(1024, 3);
   std::mt19937_64 rng(4);
@@ -294,6 +342,45 @@ TEST(ObjectSet, SplitIsByNameAndStable) {
     ASSERT_NE(it, set2.train.end());
     EXPECT_EQ(it->points, c.points);
     EXPECT_EQ(c.size(), 128u);
+  }
+}
+
+TEST(ObjectSet, ReferenceSamplesLieOnTheSameNormalisedSurfaceAndChangeNothingElse) {
+  std::vector<TriangleMesh> meshes;
+  for (int i = 0; i < 6; ++i)
+    meshes.push_back(boxMesh("slab" + std::to_string(i), 1.f + i, 0.7f, 0.3f));
+  ObjectSetOptions o;
+  o.surface_points = 256;
+  o.keep_points = 256;
+  const auto plain = buildObjectSet(meshes, o);
+  EXPECT_TRUE(plain.train_reference.empty() && plain.val_reference.empty() &&
+              plain.test_reference.empty());
+  o.reference_points = 1000;
+  const auto set = buildObjectSet(meshes, o);
+  const std::vector<const std::vector<PointCloud>*> groups{&set.train, &set.val, &set.test},
+      refs{&set.train_reference, &set.val_reference, &set.test_reference},
+      plain_groups{&plain.train, &plain.val, &plain.test};
+  for (std::size_t g = 0; g < 3; ++g) {
+    ASSERT_EQ(groups[g]->size(), refs[g]->size());
+    for (std::size_t i = 0; i < groups[g]->size(); ++i) {
+      const auto& c = (*groups[g])[i];
+      const auto& r = (*refs[g])[i];
+      EXPECT_EQ(c.points, (*plain_groups[g])[i].points) << c.frame_id;  // unchanged
+      EXPECT_EQ(r.frame_id, c.frame_id);
+      ASSERT_EQ(r.size(), 1000u);
+      // Both are samples of one box in one frame: the reference's bounding box is the points'
+      // (within a sample spacing), and every reference point lies on a face of that box.
+      Vector3f lo = c.points[0], hi = c.points[0];
+      for (const auto& p : c.points) {
+        lo = lo.cwiseMin(p);
+        hi = hi.cwiseMax(p);
+      }
+      for (const auto& p : r.points) {
+        const float to_face = std::min((p - lo).cwiseAbs().minCoeff(), (p - hi).cwiseAbs().minCoeff());
+        EXPECT_LT(to_face, 0.01f) << c.frame_id;
+        EXPECT_TRUE(((p - lo).array() > -0.05f).all() && ((hi - p).array() > -0.05f).all());
+      }
+    }
   }
 }
 

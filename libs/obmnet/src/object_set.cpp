@@ -1,5 +1,7 @@
 #include "obm/obmnet/object_set.hpp"
 
+#include <algorithm>
+
 #include "obm/config/config_node.hpp"
 #include "obm/core/log.hpp"
 
@@ -33,20 +35,31 @@ ObjectSet buildObjectSet(const std::vector<TriangleMesh>& meshes, const ObjectSe
     for (unsigned char c : mesh.name) h = (h ^ c) * 1099511628211ull;
     std::mt19937_64 rng(h);
     PointCloud c = sampleSurface(mesh, static_cast<std::size_t>(options.surface_points), rng);
-    normalizeToSphere(c, 1.0f);
+    // normalizeToSphere, with its centre and scale kept for the reference samples.
+    const Vector3f centre = c.centroid();
+    float r = 0.f;
+    for (auto& p : c.points) {
+      p -= centre;
+      r = std::max(r, p.norm());
+    }
+    const float scale = r > 0.f ? 1.0f / r : 1.0f;
+    for (auto& p : c.points) p *= scale;
     c.points.resize(static_cast<std::size_t>(options.keep_points));
     c.frame_id = mesh.name;
-    switch (splitForName(mesh.name, options.val_fraction, options.test_fraction)) {
-      case Split::Train:
-        set.train.push_back(std::move(c));
-        break;
-      case Split::Validation:
-        set.val.push_back(std::move(c));
-        break;
-      case Split::Test:
-        set.test.push_back(std::move(c));
-        break;
+    PointCloud ref;
+    if (options.reference_points > 0) {
+      // Drawn after the object's points, from the same stream: those do not change.
+      ref = sampleSurface(mesh, static_cast<std::size_t>(options.reference_points), rng);
+      for (auto& p : ref.points) p = (p - centre) * scale;
+      ref.frame_id = mesh.name;
     }
+    const Split split = splitForName(mesh.name, options.val_fraction, options.test_fraction);
+    auto& points = split == Split::Train ? set.train : split == Split::Validation ? set.val : set.test;
+    auto& refs = split == Split::Train        ? set.train_reference
+                 : split == Split::Validation ? set.val_reference
+                                              : set.test_reference;
+    points.push_back(std::move(c));
+    if (options.reference_points > 0) refs.push_back(std::move(ref));
   }
   return set;
 }

@@ -23,12 +23,20 @@ struct ObjectSetOptions {
   double val_fraction = 0.15;   ///< share of names in the validation split
   double test_fraction = 0.25;  ///< share of names in the unseen test split
   std::uint64_t seed = 0;       ///< surface sampling seed (combined with each mesh's name)
+  /// > 0: also this many reference samples of every surface (ObjectSet::*_reference), in the
+  /// frame of the object's points (same normalisation), for scoring registrations up to the
+  /// object's symmetries (obm::eval::SurfaceErrorScorer). Benchmarks only; the points the pairs
+  /// are cut from do not change.
+  int reference_points = 0;
 
   static ObjectSetOptions load(const ConfigNode& node);
 };
 
 struct ObjectSet {
   std::vector<PointCloud> train, val, test;  ///< frame_id holds the object's name
+  /// With ObjectSetOptions::reference_points > 0, one denser sample per object of the split
+  /// above (same order, same frame); else empty.
+  std::vector<PointCloud> train_reference, val_reference, test_reference;
 };
 
 /// Samples every mesh (independently of the order of `meshes`), normalises it to the unit sphere
