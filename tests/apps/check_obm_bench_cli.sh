@@ -48,6 +48,24 @@ head -1 "$work/pairs.csv" | grep -q '^pair,name,overlap,obmnet_rre_deg' || fail 
 python3 -c 'import csv,sys; r=list(csv.reader(open(sys.argv[1]))); sys.exit(any(len(x)!=len(r[0]) for x in r))' \
   "$work/pairs.csv" || fail "pairs.csv: a row's fields do not match the header"
 
+# Pairs generated from meshes are also scored up to the objects' symmetries (docs/obm-bench.md):
+# a second table, `recall_up_to_symmetry` / `median_surface_error` in the JSON, an `_surface`
+# column per method; `--surface-error 0` turns it off.
+if [[ -n "${OBM_CGAL_DATA:-}" && -d "${OBM_CGAL_DATA}" ]]; then
+  "$tool" --protocol resampled --group unseen -n 3 --seed 1 --methods icp -q \
+    --json "$work/sym.json" --per-pair "$work/sym.csv" > "$work/sym.md" 2>&1 \
+    || { cat "$work/sym.md"; fail "obm-bench --protocol resampled"; }
+  grep -q 'recall up to symmetry' "$work/sym.md" || fail "no surface table: $(cat "$work/sym.md")"
+  r=$(num recall_up_to_symmetry "$work/sym.json")
+  e=$(num median_surface_error "$work/sym.json")
+  awk -v r="$r" -v e="$e" 'BEGIN { exit !(r >= 0 && r <= 1 && e >= 0) }' \
+    || fail "recall_up_to_symmetry $r / median_surface_error $e out of range"
+  head -1 "$work/sym.csv" | grep -q 'icp_ok,icp_surface' || fail "sym.csv: no icp_surface column"
+  "$tool" --protocol resampled --group unseen -n 3 --seed 1 --methods icp -q --surface-error 0 \
+    --json "$work/nosym.json" > /dev/null 2>&1 || fail "obm-bench --surface-error 0"
+  ! grep -q recall_up_to_symmetry "$work/nosym.json" || fail "--surface-error 0 still scored"
+fi
+
 # Bad input: the file and line are named, exit code 1, nothing written.
 cp -r "$work/pairs" "$work/bad"
 echo "0002 1 0 0" >> "$work/bad/gt.txt"
