@@ -138,7 +138,8 @@ void scoreSurfaces(const std::vector<obmnet::RegistrationPair>& pairs,
   for (auto& s : scores) {
     s.per_pair_surface.resize(pairs.size());
     for (std::size_t i = 0; i < pairs.size(); ++i)
-      s.per_pair_surface[i] = scorer_of_pair[i]->error(s.per_pair_T.at(i), pairs[i].T_target_source);
+      s.per_pair_surface[i] =
+          scorer_of_pair[i]->error(s.per_pair_T.at(i), pairs[i].T_target_source);
   }
 }
 

@@ -487,7 +487,7 @@ int main(int argc, char** argv) {
       if (proto.resample && source_cfg.source != "modelnet40" && source_cfg.source != "rgbd")
         source_cfg.objects.keep_points = source_cfg.objects.surface_points;
       // Dense reference samples of every mesh for the surface error (8192: the floor of a
-      // symmetry stays near 0.001 on a unit object, docs/metrics.md); the pairs do not change.
+      // symmetry stays below 0.001 on a box, docs/metrics.md); the pairs do not change.
       if (surface_error > 0.0) source_cfg.objects.reference_points = 8192;
       auto set = datasets::loadObjectSet(source_cfg);
       if (group != "seen" && group != "val" && group != "unseen")
@@ -503,7 +503,8 @@ int main(int argc, char** argv) {
         for (std::size_t o = 0; o < used; ++o)
           object_scorers.push_back(std::make_unique<eval::SurfaceErrorScorer>(references[o]));
         for (int i = 0; i < n_pairs; ++i)
-          scorer_of_pair.push_back(object_scorers[static_cast<std::size_t>(i) % objects.size()].get());
+          scorer_of_pair.push_back(
+              object_scorers[static_cast<std::size_t>(i) % objects.size()].get());
       }
       // The point-to-point polish needs shared samples; the resampled protocol has none.
       shared_samples = !proto.resample;

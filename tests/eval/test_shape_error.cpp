@@ -38,7 +38,8 @@ PointCloud sphereSurface(std::size_t n, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<float> G(0.f, 1.f);
   PointCloud cl;
-  for (std::size_t i = 0; i < n; ++i) cl.points.push_back(Vector3f(G(rng), G(rng), G(rng)).normalized());
+  for (std::size_t i = 0; i < n; ++i)
+    cl.points.push_back(Vector3f(G(rng), G(rng), G(rng)).normalized());
   return cl;
 }
 

@@ -376,7 +376,8 @@ TEST(ObjectSet, ReferenceSamplesLieOnTheSameNormalisedSurfaceAndChangeNothingEls
         hi = hi.cwiseMax(p);
       }
       for (const auto& p : r.points) {
-        const float to_face = std::min((p - lo).cwiseAbs().minCoeff(), (p - hi).cwiseAbs().minCoeff());
+        const float to_face =
+            std::min((p - lo).cwiseAbs().minCoeff(), (p - hi).cwiseAbs().minCoeff());
         EXPECT_LT(to_face, 0.01f) << c.frame_id;
         EXPECT_TRUE(((p - lo).array() > -0.05f).all() && ((hi - p).array() > -0.05f).all());
       }

@@ -54,7 +54,9 @@ ObjectSet buildObjectSet(const std::vector<TriangleMesh>& meshes, const ObjectSe
       ref.frame_id = mesh.name;
     }
     const Split split = splitForName(mesh.name, options.val_fraction, options.test_fraction);
-    auto& points = split == Split::Train ? set.train : split == Split::Validation ? set.val : set.test;
+    auto& points = split == Split::Train        ? set.train
+                   : split == Split::Validation ? set.val
+                                                : set.test;
     auto& refs = split == Split::Train        ? set.train_reference
                  : split == Split::Validation ? set.val_reference
                                               : set.test_reference;

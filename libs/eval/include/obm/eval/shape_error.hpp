@@ -26,9 +26,10 @@ class SurfaceErrorScorer {
   /// Mean over the samples x of the distance of ΔT·x, ΔT = T_gt⁻¹·T_pred, from the surface:
   /// the distance to the tangent plane of its nearest sample y, |n_y·(ΔT·x − y)|, when y is
   /// within three median sample spacings (random samples leave holes of about two); else the
-  /// distance to y itself (a point moved off the surface's extent), capped at cap(). 0 for T_pred = T_gt; near 0 for a symmetry of the
-  /// shape. In the units of the cloud. The floor of a symmetry grows with the sample spacing
-  /// (sharp edges tilt the normals near them): 8192 samples of a unit object keep it near 0.002.
+  /// distance to y itself (a point moved off the surface's extent), capped at cap(). 0 for
+  /// T_pred = T_gt; near 0 for a symmetry of the shape. In the units of the cloud. The floor of
+  /// a symmetry grows with the sample spacing (sharp edges tilt the normals near them): on 8192
+  /// samples of a 1.8 × 1 × 0.6 box, 0.0007 for a 180° turn (2048 samples: 0.003).
   double error(const Isometry3d& T_pred, const Isometry3d& T_gt) const;
 
   /// Median distance between a sample and its nearest other sample.
