@@ -479,7 +479,29 @@ TEST(Trainer, AModelWithoutEdgeNormalsWarmStartsOneWithThemUnchanged) {
   }
   const auto reloaded = loadModel(normals_model)->config();  // the settings travel with the weights
   EXPECT_TRUE(reloaded.edge_normals);
+  EXPECT_FALSE(reloaded.edge_invariant);
   EXPECT_EQ(reloaded.normal_neighbours, 12);
+  {
+    obmnet::ObmNetConfig inv = plain;
+    inv.edge_invariant = true;
+    inv.normal_neighbours = 10;
+    torch::manual_seed(8);
+    obmnet::ObmNet net(inv);
+    ModelMeta meta;
+    meta.num_points = 64;
+    saveModel(dir + "/inv.pt", net, meta);
+    const auto back = loadModel(dir + "/inv.pt")->config();
+    EXPECT_TRUE(back.edge_invariant);
+    EXPECT_FALSE(back.edge_normals);
+    EXPECT_EQ(back.normal_neighbours, 10);
+    // Its first layer has other inputs: no warm start from a model with coordinate features.
+    try {
+      trainerWith(inv, "inv")->initializeFrom(dir + "/m.pt");
+      FAIL() << "a model with coordinate edge features cannot warm-start an invariant one";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("m.pt"), std::string::npos) << e.what();
+    }
+  }
   try {
     ObmNetConfig::load(
         ConfigNode::fromString("edge_normals: true\nnormal_neighbours: 2\n", "m.yaml"));

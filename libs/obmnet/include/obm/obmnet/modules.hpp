@@ -55,16 +55,20 @@ torch::Tensor orientedNormals(const torch::Tensor& x, const torch::Tensor& idx);
 class DenseEdgeConvImpl : public torch::nn::Module {
  public:
   /// `with_normals`: the edge features are [n_i, n_j − n_i, x_j − x_i] (9 channels, the normals
-  /// first) instead of x_j − x_i (ObmNetConfig::edge_normals).
-  DenseEdgeConvImpl(int64_t k, int64_t emb_dims, bool with_normals = false);
+  /// first) instead of x_j − x_i (ObmNetConfig::edge_normals); with `invariant` too, the
+  /// rotation-invariant [‖d‖, n_i·d, n_j·d, n_i·n_j], d = x_j − x_i (4 channels;
+  /// ObmNetConfig::edge_invariant).
+  DenseEdgeConvImpl(int64_t k, int64_t emb_dims, bool with_normals = false,
+                    bool invariant = false);
   /// `x`: B×3×N points → B×emb_dims×N features. `idx` (optional, B×N×k): a precomputed k-NN graph
   /// of `x`; when undefined it is computed here. `normals` (B×3×N): required with normals, and
   /// only then.
   torch::Tensor forward(const torch::Tensor& x, const torch::Tensor& idx = {},
                         const torch::Tensor& normals = {});
   int64_t k() const { return k_; }
-  bool withNormals() const { return edge_channels_ > 3; }
-  /// Channels of one edge feature: 3, or 9 with normals.
+  bool withNormals() const { return edge_channels_ != 3; }
+  bool invariant() const { return edge_channels_ == 4; }
+  /// Channels of one edge feature: 3, 9 with normals, 4 rotation-invariant.
   int64_t edgeChannels() const { return edge_channels_; }
   /// The same features by the layer-by-layer path of training, also in eval mode without
   /// gradients (where forward() takes the fused inference path): the reference of its test.
