@@ -494,6 +494,14 @@ TEST(Trainer, AModelWithoutEdgeNormalsWarmStartsOneWithThemUnchanged) {
     EXPECT_TRUE(back.edge_invariant);
     EXPECT_FALSE(back.edge_normals);
     EXPECT_EQ(back.normal_neighbours, 10);
+    // One kind of edge features per model: both keys are refused, naming the key.
+    try {
+      ObmNetConfig::load(
+          ConfigNode::fromString("edge_normals: true\nedge_invariant: true\n", "m.yaml"));
+      FAIL() << "edge_normals and edge_invariant together";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("edge_invariant"), std::string::npos) << e.what();
+    }
     // Its first layer has other inputs: no warm start from a model with coordinate features.
     try {
       trainerWith(inv, "inv")->initializeFrom(dir + "/m.pt");

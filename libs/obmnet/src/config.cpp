@@ -12,8 +12,8 @@ ObmNetConfig ObmNetConfig::load(const ConfigNode& node) {
   node.checkKeys({"emb_dims", "dim", "k1", "k2", "n_keypoints", "n_samples", "n_iters", "nn_margin",
                   "loss_margin", "beta", "tau_min", "use_overlap_sampling", "use_bias_prediction",
                   "use_nmm", "nmm_score_grad", "planar", "voxel_keypoints", "neighbor_loss_nearest",
-                  "shared_centroid", "edge_normals", "edge_invariant", "normal_neighbours", "ground_band",
-                  "soft_inference_sampling", "seed", "match_contrast"});
+                  "shared_centroid", "edge_normals", "edge_invariant", "normal_neighbours",
+                  "ground_band", "soft_inference_sampling", "seed", "match_contrast"});
   node.get("emb_dims", c.emb_dims);
   node.get("dim", c.dim);
   node.get("k1", c.k1);
@@ -62,6 +62,8 @@ void ObmNetConfig::validate(const std::string& where) const {
   if (!(tau_min > 0.0)) fail("tau_min", "must be > 0");
   if (!(ground_band >= 0.0)) fail("ground_band", "must be >= 0");
   if (normal_neighbours < 3) fail("normal_neighbours", "must be >= 3 (a plane needs three points)");
+  if (edge_normals && edge_invariant)
+    fail("edge_invariant", "excludes edge_normals (two kinds of edge features: choose one)");
   if (use_bias_prediction && !use_overlap_sampling)
     fail("use_bias_prediction",
          "needs use_overlap_sampling: α weights the sampled overlap region, which OS provides");
