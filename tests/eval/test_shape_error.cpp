@@ -6,6 +6,7 @@
 
 #include "obm/core/errors.hpp"
 #include "obm/eval/shape_error.hpp"
+#include "test_clouds.hpp"
 
 using namespace obm;
 using namespace obm::eval;
@@ -34,14 +35,7 @@ PointCloud boxSurface(double a, double b, double c, std::size_t n, std::uint64_t
   return cl;
 }
 
-PointCloud sphereSurface(std::size_t n, std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<float> G(0.f, 1.f);
-  PointCloud cl;
-  for (std::size_t i = 0; i < n; ++i)
-    cl.points.push_back(Vector3f(G(rng), G(rng), G(rng)).normalized());
-  return cl;
-}
+using test::unitSphereSamples;
 
 }  // namespace
 
@@ -56,7 +50,7 @@ TEST(SurfaceError, ZeroAtTheTruthAndTheTruthMayBeAnyPose) {
 TEST(SurfaceError, ASymmetryOfTheShapeIsNotAnError) {
   // A sphere turned by anything, a box with three different sides by 180° about an axis. (The
   // floor is the samples': 8192 of them keep it below what a 1° turn of the box gives, ≈ 0.003.)
-  const SurfaceErrorScorer sphere(sphereSurface(8192, 2));
+  const SurfaceErrorScorer sphere(unitSphereSamples(8192, 2));
   const Isometry3d T = turn({0, 1, 1}, 20.0, {0.3, 0.0, 0.1});
   EXPECT_LT(sphere.error(T * turn({1, -1, 0.5}, 70.0), T), 0.003);
   const SurfaceErrorScorer box(boxSurface(0.9, 0.5, 0.3, 8192, 3));
@@ -78,12 +72,12 @@ TEST(SurfaceError, PosesTheShapeTellsApartAreErrors) {
   EXPECT_GT(box.error(T * turn({0, 0, 1}, 0.0, {0.0, 0.0, 0.05}), T), 0.02);
   EXPECT_GT(box.error(T * turn({0, 0, 1}, 0.0, {0.3, 0.0, 0.0}), T), 0.02);
   // And a sphere moved is an error, whatever it is turned by.
-  const SurfaceErrorScorer sphere(sphereSurface(8192, 2));
+  const SurfaceErrorScorer sphere(unitSphereSamples(8192, 2));
   EXPECT_GT(sphere.error(T * turn({1, 0, 0}, 30.0, {0.05, 0.0, 0.0}), T), 0.02);
 }
 
 TEST(SurfaceError, TooFewSamplesAreRefusedNamingTheObject) {
-  PointCloud c = sphereSurface(10, 4);
+  PointCloud c = unitSphereSamples(10, 4);
   c.frame_id = "teapot";
   try {
     SurfaceErrorScorer s(c);

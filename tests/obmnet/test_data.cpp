@@ -16,6 +16,7 @@
 #include "obm/obmnet/object_set.hpp"
 #include "obm/obmnet/registrar.hpp"
 #include "obm/obmnet/trainer.hpp"
+#include "test_clouds.hpp"
 #include "untrained_model.hpp"
 
 using namespace obm;
@@ -24,12 +25,18 @@ using namespace obm::obmnet;
 namespace {
 
 PointCloud sphereCloud(std::size_t n, std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<float> G(0.f, 1.f);
-  PointCloud c;
-  for (std::size_t i = 0; i < n; ++i)
-    c.points.push_back(Vector3f(G(rng), G(rng), G(rng)).normalized());
-  return c;
+  return test::unitSphereSamples(n, seed);
+}
+
+/// `f` must throw ConfigError whose message names `needle`.
+template <class F>
+void expectConfigErrorNaming(F&& f, const std::string& needle, const std::string& why) {
+  try {
+    f();
+    ADD_FAILURE() << why;
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+  }
 }
 
 TriangleMesh boxMesh(const std::string& name, float sx, float sy, float sz) {
@@ -495,34 +502,26 @@ TEST(Trainer, AModelWithoutEdgeNormalsWarmStartsOneWithThemUnchanged) {
     EXPECT_FALSE(back.edge_normals);
     EXPECT_EQ(back.normal_neighbours, 10);
     // One kind of edge features per model: both keys are refused, naming the key.
-    try {
-      ObmNetConfig::load(
-          ConfigNode::fromString("edge_normals: true\nedge_invariant: true\n", "m.yaml"));
-      FAIL() << "edge_normals and edge_invariant together";
-    } catch (const ConfigError& e) {
-      EXPECT_NE(std::string(e.what()).find("edge_invariant"), std::string::npos) << e.what();
-    }
+    expectConfigErrorNaming(
+        [] {
+          ObmNetConfig::load(
+              ConfigNode::fromString("edge_normals: true\nedge_invariant: true\n", "m.yaml"));
+        },
+        "edge_invariant", "edge_normals and edge_invariant together");
     // Its first layer has other inputs: no warm start from a model with coordinate features.
-    try {
-      trainerWith(inv, "inv")->initializeFrom(dir + "/m.pt");
-      FAIL() << "a model with coordinate edge features cannot warm-start an invariant one";
-    } catch (const ConfigError& e) {
-      EXPECT_NE(std::string(e.what()).find("m.pt"), std::string::npos) << e.what();
-    }
+    expectConfigErrorNaming([&] { trainerWith(inv, "inv")->initializeFrom(dir + "/m.pt"); },
+                            "m.pt",
+                            "a model with coordinate edge features cannot warm-start an "
+                            "invariant one");
   }
-  try {
-    ObmNetConfig::load(
-        ConfigNode::fromString("edge_normals: true\nnormal_neighbours: 2\n", "m.yaml"));
-    FAIL() << "two neighbours cannot give a normal";
-  } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("normal_neighbours"), std::string::npos) << e.what();
-  }
-  try {
-    trainerWith(plain, "back")->initializeFrom(normals_model);
-    FAIL() << "a model with edge normals cannot warm-start one without";
-  } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("n.pt"), std::string::npos) << e.what();
-  }
+  expectConfigErrorNaming(
+      [] {
+        ObmNetConfig::load(
+            ConfigNode::fromString("edge_normals: true\nnormal_neighbours: 2\n", "m.yaml"));
+      },
+      "normal_neighbours", "two neighbours cannot give a normal");
+  expectConfigErrorNaming([&] { trainerWith(plain, "back")->initializeFrom(normals_model); },
+                          "n.pt", "a model with edge normals cannot warm-start one without");
 }
 
 TEST(Registrar, AlignsAndReportsDiagnostics) {

@@ -244,7 +244,8 @@ TEST(DenseEdgeConv, FusedInferenceEqualsTheLayeredPath) {
   torch::manual_seed(5);
   for (const bool with_normals : {false, true}) {
     for (int64_t k : {5, 32}) {
-      obmnet::DenseEdgeConv conv(k, 48, with_normals);
+      obmnet::DenseEdgeConv conv(
+          k, 48, with_normals ? obmnet::EdgeFeatures::Normals : obmnet::EdgeFeatures::Offsets);
       randomiseBatchNormStatistics(*conv);
       conv->eval();
       const auto x = torch::randn({3, 3, 70});
@@ -279,9 +280,9 @@ TEST(DenseEdgeConv, FusedInferenceEqualsTheLayeredPath) {
 TEST(DenseEdgeConv, InvariantEdgeFeaturesFusedEqualLayeredAndDoNotTurnWithTheCloud) {
   torch::manual_seed(6);
   for (int64_t k : {5, 32}) {
-    obmnet::DenseEdgeConv conv(k, 48, true, true);
+    obmnet::DenseEdgeConv conv(k, 48, obmnet::EdgeFeatures::Invariant);
     EXPECT_EQ(conv->edgeChannels(), 4);
-    EXPECT_TRUE(conv->withNormals() && conv->invariant());
+    EXPECT_TRUE(conv->withNormals());
     randomiseBatchNormStatistics(*conv);
     conv->eval();
     const auto x = torch::randn({2, 3, 70});
@@ -305,7 +306,7 @@ TEST(DenseEdgeConv, InvariantEdgeFeaturesFusedEqualLayeredAndDoNotTurnWithTheClo
     EXPECT_TRUE(torch::allclose(turned, fused, 1e-3, 1e-4))
         << "k = " << k << ", max difference " << (turned - fused).abs().max().item<float>();
     EXPECT_TRUE(torch::allclose(conv->forwardLayered(y, idx, ny), layered, 1e-3, 1e-4));
-    obmnet::DenseEdgeConv plain(k, 48, true);
+    obmnet::DenseEdgeConv plain(k, 48, obmnet::EdgeFeatures::Normals);
     plain->eval();
     EXPECT_FALSE(torch::allclose(plain->forward(y, idx, ny), plain->forward(x, idx, n), 1e-2,
                                  1e-3));

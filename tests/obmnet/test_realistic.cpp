@@ -21,6 +21,7 @@
 #include "obm/obmnet/svd.hpp"
 #include "obm/obmnet/trainer.hpp"
 #include "small_training.hpp"
+#include "test_clouds.hpp"
 #include "test_data.hpp"
 #include "untrained_model.hpp"
 
@@ -33,10 +34,7 @@ constexpr double kPi = 3.14159265358979323846;
 
 /// n i.i.d. points uniform on the unit sphere: an "object" whose surface samples are independent.
 PointCloud sphereSamples(std::size_t n, std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<float> G(0.f, 1.f);
-  PointCloud c;
-  for (std::size_t i = 0; i < n; ++i) c.points.push_back(Vector3f(G(rng), G(rng), G(rng)).normalized());
+  PointCloud c = test::unitSphereSamples(n, seed);
   c.frame_id = "sphere";
   return c;
 }

@@ -13,9 +13,11 @@ using obmnet::RigidTransforms;
 ObmNetImpl::ObmNetImpl(const ObmNetConfig& config) : config_(config) {
   config_.validate();
   extractor_ = register_module(
-      "extractor", obmnet::DenseEdgeConv(config_.k1, config_.emb_dims,
-                                         config_.edge_normals || config_.edge_invariant,
-                                         config_.edge_invariant));
+      "extractor",
+      obmnet::DenseEdgeConv(config_.k1, config_.emb_dims,
+                            config_.edge_invariant ? obmnet::EdgeFeatures::Invariant
+                            : config_.edge_normals ? obmnet::EdgeFeatures::Normals
+                                                   : obmnet::EdgeFeatures::Offsets));
   if (config_.use_overlap_sampling) {
     sampler_ = register_module(
         "sampler", obmnet::OverlapSampler(config_.emb_dims, config_.n_samples, config_.tau_min));

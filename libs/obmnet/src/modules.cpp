@@ -102,10 +102,12 @@ void addConv2dBnLrelu(nn::Sequential& seq, int64_t in, int64_t out) {
 
 }  // namespace
 
-DenseEdgeConvImpl::DenseEdgeConvImpl(int64_t k, int64_t emb_dims, bool with_normals,
-                                     bool invariant)
-    : k_(k), edge_channels_(invariant ? 4 : with_normals ? 9 : 3) {
-  OBM_ASSERT(with_normals || !invariant, "DenseEdgeConv: invariant edge features need normals");
+DenseEdgeConvImpl::DenseEdgeConvImpl(int64_t k, int64_t emb_dims, EdgeFeatures features)
+    : k_(k),
+      features_(features),
+      edge_channels_(features == EdgeFeatures::Invariant ? 4
+                     : features == EdgeFeatures::Normals ? 9
+                                                         : 3) {
   // Dense connectivity: layer l sees the edge features (E = 3, 9 or 4) and the outputs of layers
   // 1..l−1.
   const int64_t E = edge_channels_;
@@ -139,7 +141,7 @@ torch::Tensor DenseEdgeConvImpl::forwardLayered(const torch::Tensor& x, const to
   // B×E×N×k: relative coordinates (translation invariant), after [n_i, n_j − n_i] with normals;
   // or the point-pair feature [‖d‖, n_i·d, n_j·d, n_i·n_j] (rotation invariant too).
   auto e = edgeVectors(x, idx);
-  if (invariant()) {
+  if (features_ == EdgeFeatures::Invariant) {
     const auto ni = normals.unsqueeze(3).expand_as(e);
     const auto nj = edgeVectors(normals, idx) + ni;
     e = torch::cat({e.norm(2, 1, true), (ni * e).sum(1, true), (nj * e).sum(1, true),
@@ -234,7 +236,7 @@ torch::Tensor DenseEdgeConvImpl::forwardFused(const torch::Tensor& x, const torc
   for (int64_t b = 0; b < B; ++b) {
     const auto xb = x[b].contiguous();                       // 3×N
     const auto nbr = idx[b].t().contiguous().reshape({-1});  // k·N, neighbour-rank major
-    if (E == 4) {
+    if (features_ == EdgeFeatures::Invariant) {
       // The point-pair feature, as forwardLayered computes it (rows in its order).
       const auto nbn = normals[b].contiguous();                                 // 3×N
       const auto d = xb.index_select(1, nbr).view({3, k, N}) - xb.unsqueeze(1);  // x_j − x_i
@@ -250,7 +252,7 @@ torch::Tensor DenseEdgeConvImpl::forwardFused(const torch::Tensor& x, const torc
       torch::index_select_out(e, xb, 1, nbr);   // x_j
       e.view({3, k, N}).sub_(xb.unsqueeze(1));  // x_j − x_i
     }
-    if (E == 9) {
+    if (features_ == EdgeFeatures::Normals) {
       const auto nbn = normals[b].contiguous();                                 // 3×N
       buffer.narrow(0, 0, 3).view({3, k, N}).copy_(nbn.unsqueeze(1).expand({3, k, N}));  // n_i
       auto dn = buffer.narrow(0, 3, 3);

@@ -52,23 +52,25 @@ torch::Tensor orientedNormals(const torch::Tensor& x, const torch::Tensor& idx);
 /// features and all previous layers' edge features (dense connectivity). Each layer's output is
 /// max-pooled over the k neighbours; the four pooled maps are concatenated (256 channels) and a
 /// Conv1d + BN + ReLU maps them to emb_dims.
+/// What one EdgeConv edge (i, j) sees, d = x_j − x_i.
+enum class EdgeFeatures {
+  Offsets,    ///< d (3 channels)
+  Normals,    ///< [n_i, n_j − n_i, d] (9 channels, the normals first; ObmNetConfig::edge_normals)
+  Invariant,  ///< [‖d‖, n_i·d, n_j·d, n_i·n_j] (4; ObmNetConfig::edge_invariant)
+};
+
 class DenseEdgeConvImpl : public torch::nn::Module {
  public:
-  /// `with_normals`: the edge features are [n_i, n_j − n_i, x_j − x_i] (9 channels, the normals
-  /// first) instead of x_j − x_i (ObmNetConfig::edge_normals); with `invariant` too, the
-  /// rotation-invariant [‖d‖, n_i·d, n_j·d, n_i·n_j], d = x_j − x_i (4 channels;
-  /// ObmNetConfig::edge_invariant).
-  DenseEdgeConvImpl(int64_t k, int64_t emb_dims, bool with_normals = false,
-                    bool invariant = false);
+  DenseEdgeConvImpl(int64_t k, int64_t emb_dims, EdgeFeatures features = EdgeFeatures::Offsets);
   /// `x`: B×3×N points → B×emb_dims×N features. `idx` (optional, B×N×k): a precomputed k-NN graph
   /// of `x`; when undefined it is computed here. `normals` (B×3×N): required with normals, and
   /// only then.
   torch::Tensor forward(const torch::Tensor& x, const torch::Tensor& idx = {},
                         const torch::Tensor& normals = {});
   int64_t k() const { return k_; }
-  bool withNormals() const { return edge_channels_ != 3; }
-  bool invariant() const { return edge_channels_ == 4; }
-  /// Channels of one edge feature: 3, 9 with normals, 4 rotation-invariant.
+  EdgeFeatures features() const { return features_; }
+  bool withNormals() const { return features_ != EdgeFeatures::Offsets; }
+  /// Channels of one edge feature: 3, 9 or 4.
   int64_t edgeChannels() const { return edge_channels_; }
   /// The same features by the layer-by-layer path of training, also in eval mode without
   /// gradients (where forward() takes the fused inference path): the reference of its test.
@@ -83,6 +85,7 @@ class DenseEdgeConvImpl : public torch::nn::Module {
   torch::Tensor forwardFused(const torch::Tensor& x, const torch::Tensor& idx,
                              const torch::Tensor& normals);
   int64_t k_;
+  EdgeFeatures features_;
   int64_t edge_channels_;
   torch::nn::Sequential layer1_{nullptr}, layer2_{nullptr}, layer3_{nullptr}, layer4_{nullptr};
   torch::nn::Sequential out_{nullptr};
