@@ -106,8 +106,12 @@ std::vector<MethodScores> runBenchmark(const std::vector<obmnet::RegistrationPai
       bool failed = false;
       std::vector<std::pair<std::string, double>> conf;
       try {
-        MethodResult r = m.fn(p.source, p.target);
-        T = r.T_target_source;
+        MethodResult r = m.start_at_truth
+                             ? m.fn(p.source.transformed(p.T_target_source, p.target.frame_id),
+                                    p.target)
+                             : m.fn(p.source, p.target);
+        T = m.start_at_truth ? Isometry3d(r.T_target_source * p.T_target_source)
+                             : r.T_target_source;
         conf = std::move(r.scores);
       } catch (const std::exception&) {
         ++s.failures;

@@ -85,16 +85,25 @@ bench::Method obmnetMethod(const std::string& name, const NetRun& net, bool keep
           }};
 }
 
+/// The project's ICP after its point-to-plane stages: the point-to-point polish down to this gate
+/// and a last stage with a narrower kernel (0 = off each; IcpParams explains both), in units of
+/// --unit.
+struct IcpFinish {
+  double polish = 0.0;
+  double final_kernel = 0.0;
+};
+
 /// Point-to-plane ICP for unit-sphere objects: 0.1 correspondence gate annealed from 0.5, Huber
-/// kernel at 0.02, up to 60 iterations, then the point-to-point polish down to `polish` (0 = none;
-/// IcpParams explains when it helps). `unit` scales every length for data in other units (the
-/// KITTI protocol's sparse 1024-point sweeps use unit = 20 m: a 2 m gate, 0.4 m kernel).
-registration::IcpParams objectIcpParams(double unit, double polish) {
+/// kernel at 0.02, up to 60 iterations, then the finishing stages. `unit` scales every length for
+/// data in other units (the KITTI protocol's sparse 1024-point sweeps use unit = 20 m: a 2 m
+/// gate, 0.4 m kernel).
+registration::IcpParams objectIcpParams(double unit, const IcpFinish& finish) {
   registration::IcpParams p;
   p.initial_max_correspondence_distance = 0.5 * unit;
   p.max_correspondence_distance = 0.1 * unit;
   p.kernel_scale = 0.02 * unit;
-  p.polish_max_correspondence_distance = polish * unit;
+  p.polish_max_correspondence_distance = finish.polish * unit;
+  p.final_kernel_scale = finish.final_kernel * unit;
   p.normal_neighbors = 10;
   p.max_iterations = 60;
   p.min_correspondences = 20;
@@ -109,8 +118,8 @@ registration::ConfidenceParams objectConfidenceParams(double unit) {
   return c;
 }
 
-std::shared_ptr<registration::IcpMatcher> objectIcpMatcher(double unit, double polish) {
-  return std::make_shared<registration::IcpMatcher>(objectIcpParams(unit, polish),
+std::shared_ptr<registration::IcpMatcher> objectIcpMatcher(double unit, const IcpFinish& finish) {
+  return std::make_shared<registration::IcpMatcher>(objectIcpParams(unit, finish),
                                                     objectConfidenceParams(unit));
 }
 
@@ -135,21 +144,22 @@ bench::Method matcherMethod(std::string name,
 /// The refinement after the network: the same ICP without the coarse start. The network leaves a
 /// few degrees (≈ 0.05 at the unit sphere's surface), well inside the final 0.1 gate; a 0.5 start
 /// gate would pair the parts outside the overlap of partial pairs and pull the pose off.
-registration::IcpParams objectRefineIcpParams(double unit, double polish) {
-  registration::IcpParams p = objectIcpParams(unit, polish);
+registration::IcpParams objectRefineIcpParams(double unit, const IcpFinish& finish) {
+  registration::IcpParams p = objectIcpParams(unit, finish);
   p.initial_max_correspondence_distance = p.max_correspondence_distance;
   return p;
 }
 
 std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(const NetRun& net, double unit,
-                                                                 double polish, double overlap_keep,
+                                                                 const IcpFinish& finish,
+                                                                 double overlap_keep,
                                                                  int refine_hypotheses = 1,
                                                                  int init_headings = 0) {
   registration::ObmNetMatcherParams p;
   p.refine_hypotheses = refine_hypotheses;
   p.init_headings = init_headings;
   // The blind headings start as the `icp` row does (its wide gate), the network's poses narrow.
-  p.init_headings_gate = objectIcpParams(unit, polish).initial_max_correspondence_distance;
+  p.init_headings_gate = objectIcpParams(unit, finish).initial_max_correspondence_distance;
   p.denoise_neighbors = net.denoise;
   p.soft_sampling = net.soft_sampling;
   p.iterations = net.iterations;
@@ -162,7 +172,7 @@ std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(const NetRun& n
   p.pre_align = false;
   p.keep_init_if_better = false;
   p.overlap_stage_keep = overlap_keep;
-  return std::make_shared<registration::ObmNetIcpMatcher>(p, objectRefineIcpParams(unit, polish),
+  return std::make_shared<registration::ObmNetIcpMatcher>(p, objectRefineIcpParams(unit, finish),
                                                           objectConfidenceParams(unit));
 }
 
@@ -213,13 +223,13 @@ bench::Method obmnetIcpOrIcpMethod(std::shared_ptr<const registration::ScanMatch
 /// residuals are weighted by the module's ω (ObmmIcpMatcher); the same ICP as the `icp` row.
 std::shared_ptr<registration::ObmmIcpMatcher> obmmIcpMatcher(const std::string& model, int threads,
                                                              int num_points, double unit,
-                                                             double polish) {
+                                                             const IcpFinish& finish) {
   registration::ObmNetMatcherParams p;
   p.model_path = model;
   p.num_points = num_points;
   p.threads = threads;
   p.pre_align = false;
-  return std::make_shared<registration::ObmmIcpMatcher>(p, objectIcpParams(unit, polish),
+  return std::make_shared<registration::ObmmIcpMatcher>(p, objectIcpParams(unit, finish),
                                                         objectConfidenceParams(unit));
 }
 
@@ -276,7 +286,7 @@ int main(int argc, char** argv) {
   int n_pairs = 200, threads = 2, num_points = -1, denoise = 0, sweep_points = 0;
   std::uint64_t seed = 1;
   double recall_deg = 1.0, recall_trans = 0.1, jitter_sigma = -1.0, unit = 0.0, polish = -1.0,
-         overlap_keep = -1.0;
+         final_kernel = -1.0, overlap_keep = -1.0;
   std::vector<std::string> sequences;
   std::string pair_class, frame_gaps;
   bool quiet = false;
@@ -332,6 +342,11 @@ int main(int argc, char** argv) {
                  "gate [units of --unit] of the point-to-point polish after the project's ICP (0 = "
                  "off); default 0.05 for the generated protocols (object and fragment pairs), "
                  "whose two clouds carry the same surface samples, else 0 (see docs/obm-bench.md)");
+  app.add_option("--icp-final-kernel", final_kernel,
+                 "kernel scale [units of --unit] of a last stage of the project's ICP at its fine "
+                 "gate (0 = off); default 0.005 for the resampled protocol (independent samplings "
+                 "of objects), else 0 (see docs/obm-bench.md)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--overlap-stage", overlap_keep,
                  "obmnet+icp: fraction of the network's points, those with the largest SVD "
                  "weights, refined first by an ICP of their own (0 = off; default 0.5, see "
@@ -412,6 +427,7 @@ int main(int argc, char** argv) {
     std::vector<obmnet::RegistrationPair> pairs;
     std::string info;
     bool shared_samples = false;  // set where pairs are generated by obmnet::makePair
+    bool independent_objects = false;  // the resampled protocol: each cloud sampled on its own
     // Generated object pairs: the scorer of each pair's object (surface error up to symmetry).
     std::vector<std::unique_ptr<eval::SurfaceErrorScorer>> object_scorers;
     std::vector<const eval::SurfaceErrorScorer*> scorer_of_pair;
@@ -508,6 +524,7 @@ int main(int argc, char** argv) {
       }
       // The point-to-point polish needs shared samples; the resampled protocol has none.
       shared_samples = !proto.resample;
+      independent_objects = proto.resample;
       if (jitter_sigma >= 0.0) {
         proto.jitter_sigma = jitter_sigma;
         proto.jitter_clip = 5.0 * jitter_sigma;
@@ -549,6 +566,11 @@ int main(int argc, char** argv) {
     // obmnet::makePair draws both clouds of a generated pair from the same samples, which is
     // when the point-to-point polish helps (IcpParams); sweeps and external pairs do not.
     if (polish < 0.0) polish = shared_samples ? 0.05 : 0.0;
+    // Independent samplings of an object leave pairs a few spacings apart that pull the
+    // point-to-plane minimum; a kernel near the noise level at the end removes most of that
+    // (IcpParams::final_kernel_scale). Measured on object pairs only, so on by default there.
+    if (final_kernel < 0.0) final_kernel = independent_objects ? 0.005 : 0.0;
+    const IcpFinish finish{polish, final_kernel};
     if (overlap_keep < 0.0) overlap_keep = 0.5;
     if (overlap_keep > 1.0) throw ConfigError("--overlap-stage must be in [0, 1]");
     if (!write_pairs.empty()) bench::writePairFolder(write_pairs, pairs);
@@ -584,18 +606,27 @@ int main(int argc, char** argv) {
       if (protocol == "kitti" || !methods_arg.empty())
         methods.push_back(obmnetMethod("obmnet+verify", net, true));
       // One matcher of each kind (one model load), shared by the rows that use it.
-      const auto net_icp = obmnetIcpMatcher(net, unit, polish, overlap_keep);
-      const auto icp = objectIcpMatcher(unit, polish);
+      const auto net_icp = obmnetIcpMatcher(net, unit, finish, overlap_keep);
+      const auto icp = objectIcpMatcher(unit, finish);
       methods.push_back(matcherMethod("obmnet+icp", net_icp));
       methods.push_back(matcherMethod("icp", icp));
+      // The refinement of `obmnet+icp` started at the ground truth: where it leaves the answer,
+      // the ceiling of every refined row (a diagnostic; on request).
+      if (!methods_arg.empty()) {
+        bench::Method at_truth = matcherMethod(
+            "icp@truth", std::make_shared<registration::IcpMatcher>(
+                             objectRefineIcpParams(unit, finish), objectConfidenceParams(unit)));
+        at_truth.start_at_truth = true;
+        methods.push_back(at_truth);
+      }
       // Every yaw hypothesis of the network refined by ICP, and its classical counterpart (the
       // same headings tried blindly): for sweeps without a heading prior (loops).
       if (protocol == "kitti" || !methods_arg.empty()) {
         methods.push_back(
-            matcherMethod("obmnet+icp-all", obmnetIcpMatcher(net, unit, polish, overlap_keep, 0)));
+            matcherMethod("obmnet+icp-all", obmnetIcpMatcher(net, unit, finish, overlap_keep, 0)));
         methods.push_back(icpYawMethod(icp, 4));
         methods.push_back(matcherMethod("obmnet+icp-all+yaw4",
-                                        obmnetIcpMatcher(net, unit, polish, overlap_keep, 0, 4)));
+                                        obmnetIcpMatcher(net, unit, finish, overlap_keep, 0, 4)));
       }
       // The competition with the identity start helps only where the identity is a meaningful
       // prior (consecutive sweeps in their sensor frames); on pairs with a random rotation the
@@ -615,9 +646,9 @@ int main(int argc, char** argv) {
           const std::string row = by_consensus ? "obmnet+consensus" : "obmnet+ransac";
           methods.push_back(obmnetMethod(row, net_r));
           methods.push_back(
-              matcherMethod(row + "+icp", obmnetIcpMatcher(net_r, unit, polish, overlap_keep)));
+              matcherMethod(row + "+icp", obmnetIcpMatcher(net_r, unit, finish, overlap_keep)));
           methods.push_back(matcherMethod(
-              row + "+icp-all+yaw4", obmnetIcpMatcher(net_r, unit, polish, overlap_keep, 0, 4)));
+              row + "+icp-all+yaw4", obmnetIcpMatcher(net_r, unit, finish, overlap_keep, 0, 4)));
         }
       }
       auto o3d = bench::open3dMethods(scaledOpen3dParams(unit));
@@ -626,7 +657,7 @@ int main(int argc, char** argv) {
       // request (--methods), as they cost a network pass (two for the feature peers).
       if (!methods_arg.empty()) {
         methods.push_back(
-            matcherMethod("obmm+icp", obmmIcpMatcher(model, threads, num_points, unit, polish)));
+            matcherMethod("obmm+icp", obmmIcpMatcher(model, threads, num_points, unit, finish)));
         registration::ObmNetMatcherParams pp;
         pp.model_path = model;
         pp.num_points = num_points;

@@ -28,6 +28,10 @@ using RegisterFn =
 struct Method {
   std::string name;
   RegisterFn fn;
+  /// A diagnostic, not a registration: the method is given the source already moved by the
+  /// pair's ground truth and its pose is composed with it (`icp@truth`: how far the refinement
+  /// leaves the answer when started at it).
+  bool start_at_truth = false;
 };
 
 /// Parameters of the Open3D peers, in the units of the clouds (unit sphere for objects).

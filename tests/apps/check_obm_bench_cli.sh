@@ -41,6 +41,19 @@ done
 sed -n '/"obmnet+icp|icp": {/,/}/p' "$work/either.json" > "$work/either_block.json"
 [[ -s "$work/either_block.json" ]] || fail "no \"obmnet+icp|icp\" entry in either.json"
 lt "$(num mie_r "$work/either_block.json")" 0.05 || fail "obmnet+icp|icp: MIE(R) on easy pairs"
+# The refinement started at the ground truth (`icp@truth`, a diagnostic on request): on these
+# exact pairs it stays at the truth, and it is not in the default list.
+! grep -q '"icp@truth"' "$work/out.json" || fail "icp@truth listed by default"
+"$tool" --pairs "$work/pairs" --json "$work/truth.json" --methods "icp@truth" -q \
+  > "$work/log3.txt" 2>&1 || { cat "$work/log3.txt"; fail "obm-bench --methods icp@truth"; }
+sed -n '/"icp@truth": {/,/}/p' "$work/truth.json" > "$work/truth_block.json"
+[[ -s "$work/truth_block.json" ]] || fail "no \"icp@truth\" entry in truth.json"
+lt "$(num mie_r "$work/truth_block.json")" 0.05 || fail "icp@truth: MIE(R) on exact pairs"
+# The last narrow-kernel stage of the project's ICP: a negative scale is refused.
+if "$tool" --pairs "$work/pairs" --icp-final-kernel -0.1 -q > /dev/null 2> "$work/fk.err"; then
+  fail "--icp-final-kernel -0.1 accepted"
+fi
+grep -q 'icp-final-kernel' "$work/fk.err" || fail "--icp-final-kernel not named: $(cat "$work/fk.err")"
 [[ $(wc -l < "$work/pairs.csv") -eq 3 ]] || fail "pairs.csv: header + 2 rows expected"
 head -1 "$work/pairs.csv" | grep -q '^pair,name,overlap,obmnet_rre_deg' || fail "pairs.csv header"
 # Names are quoted fields (a kitti loop pair is named "seq:757->0 (loop, yaw 28°)"): every row

@@ -3,6 +3,7 @@
 // the expected-failure statuses.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -375,6 +376,97 @@ TEST(Icp, PointToPointPolishHelpsOnlyWhenBothCloudsShareTheSamples) {
               plane_same, polish_same, plane_indep, polish_indep);
   EXPECT_LT(polish_same, 0.6 * plane_same);
   EXPECT_GT(polish_indep, plane_indep);
+}
+
+namespace {
+
+/// n points uniform on the surface of a 1.8 × 1 × 0.6 box about the origin (area-weighted faces):
+/// sharp edges, where PCA normals of a few neighbours are wrong.
+PointCloud boxSurface(std::size_t n, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  const Eigen::Vector3d half(0.9, 0.5, 0.3);
+  const double areas[3] = {half.y() * half.z(), half.x() * half.z(), half.x() * half.y()};
+  std::discrete_distribution<int> face(
+      {areas[0], areas[0], areas[1], areas[1], areas[2], areas[2]});
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  PointCloud c;
+  while (c.size() < n) {
+    const int f = face(rng), axis = f / 2;
+    Eigen::Vector3d p(U(rng) * half.x(), U(rng) * half.y(), U(rng) * half.z());
+    p[axis] = (f % 2 ? 1.0 : -1.0) * half[axis];
+    c.push_back(p.cast<float>());
+  }
+  return c;
+}
+
+/// The `keep` points of `c` nearest to its point farthest along `dir` (a partial view, as the
+/// object protocols crop).
+PointCloud cropAround(const PointCloud& c, const Eigen::Vector3f& dir, std::size_t keep) {
+  std::size_t far = 0;
+  for (std::size_t i = 1; i < c.size(); ++i)
+    if (c.points[i].dot(dir) > c.points[far].dot(dir)) far = i;
+  std::vector<std::size_t> order(c.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return (c.points[a] - c.points[far]).squaredNorm() <
+           (c.points[b] - c.points[far]).squaredNorm();
+  });
+  PointCloud out;
+  for (std::size_t k = 0; k < keep; ++k) out.push_back(c.points[order[k]]);
+  return out;
+}
+
+}  // namespace
+
+// Two partial views of a box, each sampled on its own (1024 points, 768 kept around its own far
+// point) with σ = 0.005 jitter, ICP started at the true pose: with the object benchmark's kernel
+// (c = 0.02) the minimum lies off the truth, pulled by pairs across the box's edges, where PCA
+// normals of ten neighbours are wrong; a last stage at c = 0.005 (final_kernel_scale) ends closer
+// on average. On the benchmark's meshes the gain is larger (docs/benchmarks.md); here the test
+// holds the direction of the effect, that the stage runs after the wide kernel settled, and that
+// it keeps an exact pair exact.
+TEST(Icp, FinalNarrowKernelEndsCloserOnIndependentPartialSamplings) {
+  registration::IcpParams wide = exactParams();
+  wide.max_correspondence_distance = 0.1;
+  wide.kernel_scale = 0.02;
+  wide.normal_neighbors = 10;
+  wide.max_iterations = 60;
+  wide.translation_tolerance = 1e-4;
+  wide.rotation_tolerance = 1e-4 * kDegToRad;
+  wide.threads = 1;
+  registration::IcpParams tight = wide;
+  tight.final_kernel_scale = 0.005;
+  double err_wide = 0.0, err_tight = 0.0;
+  const int runs = 24;
+  for (int k = 0; k < runs; ++k) {
+    const PointCloud target = cropAround(jittered(boxSurface(1024, 60 + k), 0.005, 70 + k),
+                                         Eigen::Vector3f(1, 0.2f, 0), 768);
+    const PointCloud source = cropAround(jittered(boxSurface(1024, 80 + k), 0.005, 90 + k),
+                                         Eigen::Vector3f(0.7f, 0.7f, 0.1f), 768)
+                                  .transformed(kTruth.inverse(), "source");
+    const auto a = registration::IcpMatcher(wide).match(source, target, kTruth);
+    const auto b = registration::IcpMatcher(tight).match(source, target, kTruth);
+    ASSERT_NE(a.status, registration::MatchStatus::TooFewCorrespondences) << a.message;
+    ASSERT_NE(b.status, registration::MatchStatus::TooFewCorrespondences) << b.message;
+    err_wide += poseError(a.T_target_source, kTruth).second / runs;
+    err_tight += poseError(b.T_target_source, kTruth).second / runs;
+  }
+  std::printf("mean rotation error from the true pose [deg]: c = 0.02 %.3f, then c = 0.005 %.3f\n",
+              err_wide, err_tight);
+  EXPECT_LT(err_tight, err_wide);
+  // Noise-free, the same scene: both end at the truth, the narrow stage after the wide one.
+  const PointCloud exact_target = boxSurface(1024, 5);
+  const PointCloud exact_source = exact_target.transformed(kTruth.inverse(), "source");
+  const Isometry3d start = kTruth * perturbation(0.05, 4.0);
+  const auto a = registration::IcpMatcher(wide).match(exact_source, exact_target, start);
+  const auto b = registration::IcpMatcher(tight).match(exact_source, exact_target, start);
+  EXPECT_LT(poseError(a.T_target_source, kTruth).first, 1e-4);
+  EXPECT_LT(poseError(b.T_target_source, kTruth).first, 1e-4);
+  EXPECT_LT(poseError(b.T_target_source, kTruth).second, 1e-3);
+  EXPECT_GT(b.iterations, a.iterations);
+  registration::IcpParams bad = wide;
+  bad.final_kernel_scale = -1.0;
+  EXPECT_THROW(bad.validate(), ContractError);
 }
 
 }  // namespace obm

@@ -201,8 +201,15 @@ IcpOutcome runIcp(const std::vector<Vector3f>& source_points, const PreparedTarg
   // The photometric term needs intensities on both sides and the plane residual it rides on.
   const bool color = source_intensity && params.color_weight > 0.0 &&
                      target.hasColorGradients() && params.metric == IcpMetric::PointToPlane;
-  const Problem pb{source_points, target, params, point_weights,
-                   color ? source_intensity : nullptr};
+  const Problem pb_wide{source_points, target, params, point_weights,
+                        color ? source_intensity : nullptr};
+  // The last stage's kernel (IcpParams::final_kernel_scale): the same problem, a narrower c.
+  IcpParams tight_params = params;
+  tight_params.kernel_scale = params.final_kernel_scale;
+  const Problem pb_tight{source_points, target, tight_params, point_weights,
+                         color ? source_intensity : nullptr};
+  const Problem* stage = &pb_wide;
+  bool tight_pending = params.final_kernel_scale > 0.0;
   const double fine = params.max_correspondence_distance;
   double gate = params.initial_max_correspondence_distance > fine
                     ? params.initial_max_correspondence_distance
@@ -214,6 +221,7 @@ IcpOutcome runIcp(const std::vector<Vector3f>& source_points, const PreparedTarg
   for (int it = 0; it < params.max_iterations; ++it) {
     out.iterations = it + 1;
     // Search + normal equations in one parallel pass.
+    const Problem& pb = *stage;
     const Normal ne = evaluate(pb, corr, T, true, gate, params.threads);
     const std::size_t n = ne.count;
     out.num_correspondences = n;
@@ -253,6 +261,12 @@ IcpOutcome runIcp(const std::vector<Vector3f>& source_points, const PreparedTarg
     if (small) {
       if (gate > fine) {
         gate = std::max(gate * params.anneal_factor, fine);
+        continue;
+      }
+      if (tight_pending) {
+        tight_pending = false;
+        stage = &pb_tight;
+        lambda = 1e-4;
         continue;
       }
       out.converged = true;
