@@ -85,12 +85,13 @@ bench::Method obmnetMethod(const std::string& name, const NetRun& net, bool keep
           }};
 }
 
-/// The project's ICP after its point-to-plane stages: the point-to-point polish down to this gate
-/// and a last stage with a narrower kernel (0 = off each; IcpParams explains both), in units of
-/// --unit.
+/// Options of the project's ICP beyond its fixed object settings (0 = off each; IcpParams
+/// explains them): the point-to-point polish down to a gate and a last stage with a narrower
+/// kernel, in units of --unit, and the threshold below which a direction of the pose is held.
 struct IcpFinish {
   double polish = 0.0;
   double final_kernel = 0.0;
+  double weak = 0.0;
 };
 
 /// Point-to-plane ICP for unit-sphere objects: 0.1 correspondence gate annealed from 0.5, Huber
@@ -104,6 +105,7 @@ registration::IcpParams objectIcpParams(double unit, const IcpFinish& finish) {
   p.kernel_scale = 0.02 * unit;
   p.polish_max_correspondence_distance = finish.polish * unit;
   p.final_kernel_scale = finish.final_kernel * unit;
+  p.weak_direction_threshold = finish.weak;
   p.normal_neighbors = 10;
   p.max_iterations = 60;
   p.min_correspondences = 20;
@@ -286,7 +288,7 @@ int main(int argc, char** argv) {
   int n_pairs = 200, threads = 2, num_points = -1, denoise = 0, sweep_points = 0;
   std::uint64_t seed = 1;
   double recall_deg = 1.0, recall_trans = 0.1, jitter_sigma = -1.0, unit = 0.0, polish = -1.0,
-         final_kernel = -1.0, overlap_keep = -1.0;
+         final_kernel = -1.0, overlap_keep = -1.0, weak_threshold = 0.0;
   std::vector<std::string> sequences;
   std::string pair_class, frame_gaps;
   bool quiet = false;
@@ -347,6 +349,11 @@ int main(int argc, char** argv) {
                  "gate (0 = off); default 0.005 for the resampled protocol (independent samplings "
                  "of objects), else 0 (see docs/obm-bench.md)")
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--icp-weak", weak_threshold,
+                 "the project's ICP: directions of the pose whose normalised Hessian eigenvalue "
+                 "is below this are not moved (0 = off; see docs/obm-bench.md)")
+      ->check(CLI::Range(0.0, 0.999))
+      ->capture_default_str();
   app.add_option("--overlap-stage", overlap_keep,
                  "obmnet+icp: fraction of the network's points, those with the largest SVD "
                  "weights, refined first by an ICP of their own (0 = off; default 0.5, see "
@@ -570,7 +577,7 @@ int main(int argc, char** argv) {
     // point-to-plane minimum; a kernel near the noise level at the end removes most of that
     // (IcpParams::final_kernel_scale). Measured on object pairs only, so on by default there.
     if (final_kernel < 0.0) final_kernel = independent_objects ? 0.005 : 0.0;
-    const IcpFinish finish{polish, final_kernel};
+    const IcpFinish finish{polish, final_kernel, weak_threshold};
     if (overlap_keep < 0.0) overlap_keep = 0.5;
     if (overlap_keep > 1.0) throw ConfigError("--overlap-stage must be in [0, 1]");
     if (!write_pairs.empty()) bench::writePairFolder(write_pairs, pairs);

@@ -101,6 +101,8 @@ TEST(RegistrationConfig, ErrorsNameFileAndKey) {
   expectConfigError("icp: {metric: plane}", "icp.metric");
   expectConfigError("icp: {solver: newton}", "icp.solver");
   expectConfigError("icp: {max_correspondence_distance: -1}", "max_correspondence_distance");
+  expectConfigError("icp: {final_kernel_scale: -0.01}", "final_kernel_scale");
+  expectConfigError("icp: {weak_direction_threshold: 1.5}", "weak_direction_threshold");
   expectConfigError("icp: {max_iterations: many}", "icp.max_iterations");
   expectConfigError("icp: {kernel_sclae: 1}", "icp.kernel_sclae");
   expectConfigError("confidence: {min_sigma: 0}", "min_sigma");
@@ -189,6 +191,9 @@ TEST(RegistrationConfig, ShippedIcpConfigHoldsTheDefaults) {
   EXPECT_EQ(c.icp.point_to_point_fallback, d.point_to_point_fallback);
   EXPECT_EQ(c.icp.kernel, d.kernel);
   EXPECT_EQ(c.icp.kernel_scale, d.kernel_scale);
+  EXPECT_EQ(c.icp.final_kernel_scale, d.final_kernel_scale);
+  EXPECT_EQ(c.icp.weak_direction_threshold, d.weak_direction_threshold);
+  EXPECT_EQ(c.icp.polish_max_correspondence_distance, d.polish_max_correspondence_distance);
   EXPECT_EQ(c.icp.solver, d.solver);
   EXPECT_EQ(c.icp.max_iterations, d.max_iterations);
   EXPECT_EQ(c.icp.translation_tolerance, d.translation_tolerance);

@@ -1,6 +1,7 @@
 #include "obm/registration/icp.hpp"
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -167,6 +168,40 @@ Vector6d solveStep(const Matrix6d& H, const Vector6d& g, double lambda, bool lm)
   return delta.allFinite() ? delta : Vector6d::Zero();
 }
 
+/// Basis (columns, in δ = [ρ; θ] coordinates) of the pose directions the normal equations `H`
+/// of `count` correspondences hold (IcpParams::weak_direction_threshold): eigenvectors of the
+/// unit-free Hessian D·H·D / count, D scaling rotation by the RMS lever arm `L`, whose eigenvalue
+/// is at least `threshold`. Six columns when every direction holds.
+Eigen::Matrix<double, 6, Eigen::Dynamic> heldDirections(const Matrix6d& H, std::size_t count,
+                                                        double L, double threshold) {
+  Vector6d D = Vector6d::Ones();
+  if (L > 0.0) D.tail<3>().setConstant(1.0 / L);
+  const Matrix6d Hn = D.asDiagonal() * H * D.asDiagonal() / double(std::max<std::size_t>(1, count));
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> es(Hn);
+  Eigen::Matrix<double, 6, Eigen::Dynamic> basis(6, 0);
+  for (int k = 0; k < 6; ++k) {
+    if (es.eigenvalues()(k) < threshold) continue;
+    basis.conservativeResize(Eigen::NoChange, basis.cols() + 1);
+    basis.col(basis.cols() - 1) = D.asDiagonal() * es.eigenvectors().col(k);  // δ = D·u
+  }
+  return basis;
+}
+
+/// The step of solveStep confined to the columns of `B`: δ = B·y with y solving the reduced
+/// normal equations, so that no direction outside B moves.
+Vector6d solveStepWithin(const Matrix6d& H, const Vector6d& g, double lambda, bool lm,
+                         const Eigen::Matrix<double, 6, Eigen::Dynamic>& B) {
+  if (B.cols() == 0) return Vector6d::Zero();
+  Eigen::MatrixXd A = B.transpose() * H * B;
+  const Eigen::VectorXd b = B.transpose() * g;
+  const double max_diag = std::max(A.diagonal().maxCoeff(), 1e-300);
+  for (Eigen::Index k = 0; k < A.rows(); ++k)
+    A(k, k) += lm ? lambda * std::max(A(k, k), 1e-6 * max_diag) : 1e-9 * max_diag;
+  const Eigen::VectorXd y = A.ldlt().solve(-b);
+  if (!y.allFinite()) return Vector6d::Zero();
+  return B * y;
+}
+
 }  // namespace
 
 IcpOutcome runIcp(const std::vector<Vector3f>& source_points, const PreparedTarget& target,
@@ -234,15 +269,30 @@ IcpOutcome runIcp(const std::vector<Vector3f>& source_points, const PreparedTarg
       return out;
     }
     Vector6d delta = Vector6d::Zero();
+    // The directions that move this iteration (IcpParams::weak_direction_threshold).
+    Eigen::Matrix<double, 6, Eigen::Dynamic> held(6, 0);
+    const bool confine = params.weak_direction_threshold > 0.0;
+    if (confine) {
+      double p2 = 0.0;
+      const Eigen::Matrix3d R = T.linear();
+      for (std::size_t i = 0; i < source_points.size(); ++i)
+        if (corr[i].kind != kNone)
+          p2 += (R * source_points[i].cast<double>() + T.translation()).squaredNorm();
+      held = heldDirections(ne.H, n, std::sqrt(p2 / double(n)), params.weak_direction_threshold);
+    }
+    auto step = [&](double lam, bool use_lm) {
+      return confine ? solveStepWithin(ne.H, ne.g, lam, use_lm, held)
+                     : solveStep(ne.H, ne.g, lam, use_lm);
+    };
     if (!lm) {
-      delta = solveStep(ne.H, ne.g, 0.0, false);
+      delta = step(0.0, false);
       T = applyStep(T, delta);
     } else {
       // Levenberg–Marquardt on the robust cost of the fixed correspondences: retry with more
       // damping until the cost decreases; no decrease at all means this stage has settled.
       bool accepted = false;
       for (int attempt = 0; attempt < 10 && !accepted; ++attempt) {
-        const Vector6d d = solveStep(ne.H, ne.g, lambda, true);
+        const Vector6d d = step(lambda, true);
         const Isometry3d T_new = applyStep(T, d);
         // Residuals only (no search): cheap enough for one thread, which avoids a barrier.
         const double cost = evaluate(pb, corr, T_new, false, 0.0, 1).cost;

@@ -39,6 +39,8 @@ void IcpParams::validate() const {
             std::isfinite(polish_max_correspondence_distance),
         "polish_max_correspondence_distance must be >= 0");
   check(kernel_scale > 0.0 && std::isfinite(kernel_scale), "kernel_scale must be > 0");
+  check(weak_direction_threshold >= 0.0 && weak_direction_threshold < 1.0,
+        "weak_direction_threshold must be in [0, 1)");
   check(final_kernel_scale >= 0.0 && std::isfinite(final_kernel_scale),
         "final_kernel_scale must be >= 0 (0 = no final stage)");
   check(color_weight >= 0.0 && std::isfinite(color_weight), "color_weight must be >= 0");
@@ -59,7 +61,7 @@ IcpParams IcpParams::load(const ConfigNode& node) {
   node.checkKeys({"source_voxel", "target_voxel", "normal_neighbors", "min_planarity",
                   "max_correspondence_distance", "initial_max_correspondence_distance",
                   "anneal_factor", "polish_max_correspondence_distance", "metric", "point_to_point_fallback", "kernel", "kernel_scale",
-                  "final_kernel_scale",
+                  "final_kernel_scale", "weak_direction_threshold",
                   "color_weight", "color_kernel_scale", "depth_noise_weights", "depth_noise_a",
                   "depth_noise_b", "depth_noise_z0",
                   "solver", "max_iterations", "translation_tolerance", "rotation_tolerance_deg",
@@ -79,6 +81,7 @@ IcpParams IcpParams::load(const ConfigNode& node) {
     p.kernel = parseRobustKernel(node.required<std::string>("kernel"), node.where("kernel"));
   node.get("kernel_scale", p.kernel_scale);
   node.get("final_kernel_scale", p.final_kernel_scale);
+  node.get("weak_direction_threshold", p.weak_direction_threshold);
   node.get("color_weight", p.color_weight);
   node.get("color_kernel_scale", p.color_kernel_scale);
   node.get("depth_noise_weights", p.depth_noise_weights);

@@ -68,6 +68,13 @@ struct IcpParams {
   /// minimum (objects: ICP started at the true pose keeps 81.2 % of 144 validation pairs within
   /// 1° / 0.01 with c = 0.02 alone, 84.0 % with a last stage at c = 0.005; docs/benchmarks.md).
   double final_kernel_scale = 0.0;
+  /// Directions of the pose the residuals hardly constrain are not moved (0 = off): each
+  /// iteration, the eigenvectors of the unit-free Hessian (rotation scaled by the RMS lever arm
+  /// of the paired points, per correspondence, as the conditioning score of confidence.hpp)
+  /// whose eigenvalue is below this are left out of the step. A flat plate's in-plane slide
+  /// and turn, a cylinder's slide along its axis: there the noise-tilted normals have a small,
+  /// biased pull and nothing resists it, so the iterations walk off the start. [-]
+  double weak_direction_threshold = 0.0;
   /// Weight λ of the photometric term of coloured ICP (Park, Zhou & Koltun 2017): the cost is
   /// E_geometric + λ·E_colour, with the colour residual r = I(q) + d_qᵀ(T·p − q) − I(p) on the
   /// target's tangent-plane intensity gradient d_q (docs/registration.md, "Coloured ICP"). Used
