@@ -49,6 +49,25 @@ lt "$(num mie_r "$work/either_block.json")" 0.05 || fail "obmnet+icp|icp: MIE(R)
 sed -n '/"icp@truth": {/,/}/p' "$work/truth.json" > "$work/truth_block.json"
 [[ -s "$work/truth_block.json" ]] || fail "no \"icp@truth\" entry in truth.json"
 lt "$(num mie_r "$work/truth_block.json")" 0.05 || fail "icp@truth: MIE(R) on exact pairs"
+# scripts/turn_pair_sources.py (on pairs as --write-pairs writes them): turned by 10° about y
+# they stay exact (gt.txt rewritten):
+# the refinement started at the new truth still stays there, and ICP from the identity, now 10°
+# further off, still registers these easy pairs; a missing folder is named.
+"$tool" --pairs "$work/pairs" --methods icp --write-pairs "$work/written" -q > /dev/null 2>&1 \
+  || fail "obm-bench --write-pairs"
+python3 "$src/scripts/turn_pair_sources.py" "$work/written" "$work/turned" --axis y --deg 10 \
+  > /dev/null || fail "turn_pair_sources.py"
+"$tool" --pairs "$work/turned" --json "$work/turned.json" --methods "icp,icp@truth" -q \
+  > "$work/log4.txt" 2>&1 || { cat "$work/log4.txt"; fail "obm-bench on turned pairs"; }
+for m in icp icp@truth; do
+  sed -n "/\"$m\": {/,/}/p" "$work/turned.json" > "$work/turned_block.json"
+  lt "$(num mie_r "$work/turned_block.json")" 0.05 || fail "$m: MIE(R) on turned pairs"
+done
+if python3 "$src/scripts/turn_pair_sources.py" "$work/none" "$work/t2" --axis x --deg 5 \
+  2> "$work/turn.err"; then
+  fail "turn_pair_sources.py accepted a missing folder"
+fi
+grep -q 'none/gt.txt' "$work/turn.err" || fail "turn_pair_sources.py: $(cat "$work/turn.err")"
 # The last narrow-kernel stage of the project's ICP: a negative scale is refused.
 if "$tool" --pairs "$work/pairs" --icp-final-kernel -0.1 -q > /dev/null 2> "$work/fk.err"; then
   fail "--icp-final-kernel -0.1 accepted"
