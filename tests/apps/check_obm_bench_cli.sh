@@ -50,9 +50,9 @@ sed -n '/"icp@truth": {/,/}/p' "$work/truth.json" > "$work/truth_block.json"
 [[ -s "$work/truth_block.json" ]] || fail "no \"icp@truth\" entry in truth.json"
 lt "$(num mie_r "$work/truth_block.json")" 0.05 || fail "icp@truth: MIE(R) on exact pairs"
 # scripts/turn_pair_sources.py (on pairs as --write-pairs writes them): turned by 10° about y
-# they stay exact (gt.txt rewritten):
-# the refinement started at the new truth still stays there, and ICP from the identity, now 10°
-# further off, still registers these easy pairs; a missing folder is named.
+# they stay exact (gt.txt rewritten), so the refinement started at the new truth stays there and
+# ICP from the identity, now 10° further off, still registers these easy pairs; a missing folder
+# is named.
 "$tool" --pairs "$work/pairs" --methods icp --write-pairs "$work/written" -q > /dev/null 2>&1 \
   || fail "obm-bench --write-pairs"
 python3 "$src/scripts/turn_pair_sources.py" "$work/written" "$work/turned" --axis y --deg 10 \
