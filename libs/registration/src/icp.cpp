@@ -341,6 +341,8 @@ IcpOutcome runIcp(const std::vector<Vector3f>& source_points, const PreparedTarg
     polish.initial_max_correspondence_distance = fine;
     polish.max_correspondence_distance = std::min(fine, params.polish_max_correspondence_distance);
     polish.polish_max_correspondence_distance = 0.0;
+    polish.final_kernel_scale = 0.0;         // the polish is one point-to-point stage, ...
+    polish.weak_direction_threshold = 0.0;   // ... whose point pairs hold every direction
     polish.depth_noise_weights = false;  // point_weights already carry them
     const IcpOutcome p = runIcp(source_points, target, T, polish, point_weights);
     if (p.status == MatchStatus::TooFewCorrespondences) return out;  // keep the plane result
