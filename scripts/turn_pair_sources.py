@@ -75,7 +75,7 @@ def main():
         except ValueError:
             fail("%s:%d: a field is not a number" % (gt_path, n))
         M = [T[0:4], T[4:8], T[8:12]]
-        # T' = T·R⁻¹: the rotation block times Rᵀ, the translation unchanged (R turns about 0).
+        # T' = T·R⁻¹: the rotation block times Rᵀ; R turns about 0, so t is unchanged.
         Mp = [[sum(M[r][k] * R[c][k] for k in range(3)) for c in range(3)] + [M[r][3]]
               for r in range(3)]
         out_gt.append(f[0] + " " + " ".join(repr(x) for row in Mp for x in row))
@@ -100,7 +100,8 @@ def main():
     with open(tmp, "w") as g:
         g.write("\n".join(out_gt) + "\n")
     os.replace(tmp, os.path.join(args.dst, "gt.txt"))
-    print("%d pairs turned by %g deg about %s into %s" % (len(lines), args.deg, args.axis, args.dst))
+    print("%d pairs turned by %g deg about %s into %s"
+          % (len(lines), args.deg, args.axis, args.dst))
 
 
 if __name__ == "__main__":

@@ -72,7 +72,8 @@ grep -q 'none/gt.txt' "$work/turn.err" || fail "turn_pair_sources.py: $(cat "$wo
 if "$tool" --pairs "$work/pairs" --icp-final-kernel -0.1 -q > /dev/null 2> "$work/fk.err"; then
   fail "--icp-final-kernel -0.1 accepted"
 fi
-grep -q 'icp-final-kernel' "$work/fk.err" || fail "--icp-final-kernel not named: $(cat "$work/fk.err")"
+grep -q 'icp-final-kernel' "$work/fk.err" \
+  || fail "--icp-final-kernel not named: $(cat "$work/fk.err")"
 [[ $(wc -l < "$work/pairs.csv") -eq 3 ]] || fail "pairs.csv: header + 2 rows expected"
 head -1 "$work/pairs.csv" | grep -q '^pair,name,overlap,obmnet_rre_deg' || fail "pairs.csv header"
 # Names are quoted fields (a kitti loop pair is named "seq:757->0 (loop, yaw 28°)"): every row
