@@ -33,22 +33,26 @@ for m in obmnet+icp icp; do
   lt "$(num mie_r "$work/$m.json")" 0.05 || fail "$m: MIE(R) $(num mie_r "$work/$m.json") on easy pairs"
   [[ "$(num recall "$work/$m.json")" == 1* ]] || fail "$m: recall below 1 on easy pairs"
 done
+# expect_mie_below JSON METHOD BOUND WHAT: METHOD has an entry in JSON with MIE(R) below BOUND.
+expect_mie_below() {
+  sed -n "/\"$2\": {/,/}/p" "$1" > "$work/block.json"
+  [[ -s "$work/block.json" ]] || fail "no \"$2\" entry in $1"
+  local mie
+  mie=$(num mie_r "$work/block.json")
+  lt "$mie" "$3" || fail "$2: MIE(R) $mie on $4"
+}
 # The two-start method is not in the default list for --pairs, but is available by name; on
 # pairs that both starts register it registers them too.
 ! grep -q '"obmnet+icp|icp"' "$work/out.json" || fail "obmnet+icp|icp listed by default for --pairs"
 "$tool" --pairs "$work/pairs" --json "$work/either.json" --methods "obmnet+icp|icp,icp" -q \
   > "$work/log2.txt" 2>&1 || { cat "$work/log2.txt"; fail "obm-bench --methods obmnet+icp|icp"; }
-sed -n '/"obmnet+icp|icp": {/,/}/p' "$work/either.json" > "$work/either_block.json"
-[[ -s "$work/either_block.json" ]] || fail "no \"obmnet+icp|icp\" entry in either.json"
-lt "$(num mie_r "$work/either_block.json")" 0.05 || fail "obmnet+icp|icp: MIE(R) on easy pairs"
+expect_mie_below "$work/either.json" "obmnet+icp|icp" 0.05 "easy pairs"
 # The refinement started at the ground truth (`icp@truth`, a diagnostic on request): on these
 # exact pairs it stays at the truth, and it is not in the default list.
 ! grep -q '"icp@truth"' "$work/out.json" || fail "icp@truth listed by default"
 "$tool" --pairs "$work/pairs" --json "$work/truth.json" --methods "icp@truth" -q \
   > "$work/log3.txt" 2>&1 || { cat "$work/log3.txt"; fail "obm-bench --methods icp@truth"; }
-sed -n '/"icp@truth": {/,/}/p' "$work/truth.json" > "$work/truth_block.json"
-[[ -s "$work/truth_block.json" ]] || fail "no \"icp@truth\" entry in truth.json"
-lt "$(num mie_r "$work/truth_block.json")" 0.05 || fail "icp@truth: MIE(R) on exact pairs"
+expect_mie_below "$work/truth.json" "icp@truth" 0.05 "exact pairs"
 # scripts/turn_pair_sources.py (on pairs as --write-pairs writes them): turned by 10° about y
 # they stay exact (gt.txt rewritten), so the refinement started at the new truth stays there and
 # ICP from the identity, now 10° further off, still registers these easy pairs; a missing folder
@@ -59,10 +63,7 @@ python3 "$src/scripts/turn_pair_sources.py" "$work/written" "$work/turned" --axi
   > /dev/null || fail "turn_pair_sources.py"
 "$tool" --pairs "$work/turned" --json "$work/turned.json" --methods "icp,icp@truth" -q \
   > "$work/log4.txt" 2>&1 || { cat "$work/log4.txt"; fail "obm-bench on turned pairs"; }
-for m in icp icp@truth; do
-  sed -n "/\"$m\": {/,/}/p" "$work/turned.json" > "$work/turned_block.json"
-  lt "$(num mie_r "$work/turned_block.json")" 0.05 || fail "$m: MIE(R) on turned pairs"
-done
+for m in icp icp@truth; do expect_mie_below "$work/turned.json" "$m" 0.05 "turned pairs"; done
 if python3 "$src/scripts/turn_pair_sources.py" "$work/none" "$work/t2" --axis x --deg 5 \
   2> "$work/turn.err"; then
   fail "turn_pair_sources.py accepted a missing folder"

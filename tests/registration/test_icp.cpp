@@ -399,6 +399,20 @@ PointCloud boxSurface(std::size_t n, std::uint64_t seed) {
   return c;
 }
 
+/// The object benchmark's ICP (unit-sphere scale: 0.1 gate, Huber at 0.02, 10-neighbour normals,
+/// 60 iterations, one thread), converged when the step is below `tolerance` in units and degrees.
+registration::IcpParams objectScaleParams(double tolerance) {
+  registration::IcpParams p = exactParams();
+  p.max_correspondence_distance = 0.1;
+  p.kernel_scale = 0.02;
+  p.normal_neighbors = 10;
+  p.max_iterations = 60;
+  p.translation_tolerance = tolerance;
+  p.rotation_tolerance = tolerance * kDegToRad;
+  p.threads = 1;
+  return p;
+}
+
 /// The `keep` points of `c` nearest to its point farthest along `dir` (a partial view, as the
 /// object protocols crop).
 PointCloud cropAround(const PointCloud& c, const Eigen::Vector3f& dir, std::size_t keep) {
@@ -426,14 +440,7 @@ PointCloud cropAround(const PointCloud& c, const Eigen::Vector3f& dir, std::size
 // holds the direction of the effect, that the stage runs after the wide kernel settled, and that
 // it keeps an exact pair exact.
 TEST(Icp, FinalNarrowKernelEndsCloserOnIndependentPartialSamplings) {
-  registration::IcpParams wide = exactParams();
-  wide.max_correspondence_distance = 0.1;
-  wide.kernel_scale = 0.02;
-  wide.normal_neighbors = 10;
-  wide.max_iterations = 60;
-  wide.translation_tolerance = 1e-4;
-  wide.rotation_tolerance = 1e-4 * kDegToRad;
-  wide.threads = 1;
+  const registration::IcpParams wide = objectScaleParams(1e-4);
   registration::IcpParams tight = wide;
   tight.final_kernel_scale = 0.005;
   double err_wide = 0.0, err_tight = 0.0;
@@ -492,14 +499,7 @@ PointCloud flatPlate(std::size_t n, std::uint64_t seed) {
 // direction and the two tilts are still solved (a start lifted off the plate and tilted is
 // brought back).
 TEST(Icp, WeakDirectionsOfAFlatPlateAreNotMoved) {
-  registration::IcpParams free = exactParams();
-  free.max_correspondence_distance = 0.1;
-  free.kernel_scale = 0.02;
-  free.normal_neighbors = 10;
-  free.max_iterations = 60;
-  free.translation_tolerance = 1e-5;
-  free.rotation_tolerance = 1e-5 * kDegToRad;
-  free.threads = 1;
+  const registration::IcpParams free = objectScaleParams(1e-5);
   registration::IcpParams held = free;
   held.weak_direction_threshold = 0.01;
   const Isometry3d truth = makeIsometry(

@@ -8,6 +8,7 @@
 #include "obm/core/errors.hpp"
 #include "obm/registration/match_result.hpp"
 #include "obm/core/parallel.hpp"
+#include "unit_free.hpp"
 
 namespace obm::registration {
 namespace {
@@ -175,14 +176,11 @@ AlignmentStats evaluateAlignment(const std::vector<Vector3f>& source_points,
   s.sigma2_used = std::max(s.sigma2, confidence.min_sigma * confidence.min_sigma);
   s.information = (confidence.information_scale / s.sigma2_used) * s.hessian;
   // Unit-free conditioning: rotation columns scaled by the RMS lever arm L, per unit weight.
-  const double L = std::sqrt(T.weighted_p2 / T.omega_sum);
-  Vector6d D;
-  D << 1, 1, 1, 1, 1, 1;
-  if (L > 0.0) D.tail<3>().setConstant(1.0 / L);
+  const Vector6d D = detail::unitFreeScaling(std::sqrt(T.weighted_p2 / T.omega_sum));
   // With coloured ICP, the conditioning is that of the whole cost the pose minimised (geometric +
   // photometric): a wall with a texture is not degenerate for it. The information stays geometric.
   const Matrix6d H_cost = color ? Matrix6d(s.hessian + 0.5 * (T.Hc + T.Hc.transpose())) : s.hessian;
-  const Matrix6d Hn = D.asDiagonal() * H_cost * D.asDiagonal() / T.weight_sum;
+  const Matrix6d Hn = detail::unitFreeHessian(H_cost, D, T.weight_sum);
   Eigen::SelfAdjointEigenSolver<Matrix6d> es(Hn, Eigen::EigenvaluesOnly);
   s.conditioning = std::max(0.0, es.eigenvalues()(0));
   return s;

@@ -10,6 +10,7 @@
 #include "obm/core/log.hpp"
 #include "obm/registration/confidence.hpp"
 #include "obm/core/parallel.hpp"
+#include "unit_free.hpp"
 
 namespace obm::registration {
 namespace {
@@ -170,14 +171,13 @@ Vector6d solveStep(const Matrix6d& H, const Vector6d& g, double lambda, bool lm)
 
 /// Basis (columns, in δ = [ρ; θ] coordinates) of the pose directions the normal equations `H`
 /// of `count` correspondences hold (IcpParams::weak_direction_threshold): eigenvectors of the
-/// unit-free Hessian D·H·D / count, D scaling rotation by the RMS lever arm `L`, whose eigenvalue
-/// is at least `threshold`. Six columns when every direction holds.
+/// unit-free Hessian (unit_free.hpp, the conditioning score's form) whose eigenvalue is at least
+/// `threshold`. Six columns when every direction holds.
 Eigen::Matrix<double, 6, Eigen::Dynamic> heldDirections(const Matrix6d& H, std::size_t count,
                                                         double L, double threshold) {
-  Vector6d D = Vector6d::Ones();
-  if (L > 0.0) D.tail<3>().setConstant(1.0 / L);
-  const Matrix6d Hn = D.asDiagonal() * H * D.asDiagonal() / double(std::max<std::size_t>(1, count));
-  const Eigen::SelfAdjointEigenSolver<Matrix6d> es(Hn);
+  const Vector6d D = detail::unitFreeScaling(L);
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> es(
+      detail::unitFreeHessian(H, D, double(std::max<std::size_t>(1, count))));
   Eigen::Matrix<double, 6, Eigen::Dynamic> basis(6, 0);
   for (int k = 0; k < 6; ++k) {
     if (es.eigenvalues()(k) < threshold) continue;
