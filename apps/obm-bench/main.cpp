@@ -46,6 +46,7 @@ struct NetRun {
   int denoise = 0;
   int soft_sampling = -1;  ///< −1 = as the model file says, 0 = one-hot, 1 = relaxed (--sampling)
   int iterations = 0;      ///< registration iterations per pass; 0 = the model's (--iterations)
+  double spatial_sigma = -1.0;  ///< the matching map's spatial prior; −1 = the model's (--spatial-prior)
   int yaw_hypotheses = 0;  ///< 0 = the model's (--yaw-hypotheses)
   int ransac = 0;          ///< RANSAC samples on the network's correspondences (--ransac)
   /// With `ransac`: hypotheses ranked by their RANSAC consensus (the +consensus rows, the library's
@@ -61,6 +62,7 @@ bench::Method obmnetMethod(const std::string& name, const NetRun& net, bool keep
   obmnet::ObmNetRegistrar::Options o{net.model, net.num_points, net.threads, 0, net.denoise};
   o.soft_sampling = net.soft_sampling;
   o.iterations = net.iterations;
+  o.spatial_sigma = net.spatial_sigma;
   o.yaw_hypotheses = net.yaw_hypotheses;
   o.ransac_iterations = net.ransac;
   o.select_by_consensus = net.by_consensus;
@@ -165,6 +167,7 @@ std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(const NetRun& n
   p.denoise_neighbors = net.denoise;
   p.soft_sampling = net.soft_sampling;
   p.iterations = net.iterations;
+  p.spatial_sigma = net.spatial_sigma;
   p.yaw_hypotheses = net.yaw_hypotheses;
   p.ransac_iterations = net.ransac;
   p.select_by_consensus = net.by_consensus;
@@ -403,6 +406,13 @@ int main(int argc, char** argv) {
                  "iterations share their weights, so more than training ran is allowed)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  double spatial_sigma = -1.0;
+  app.add_option("--spatial-prior", spatial_sigma,
+                 "σ of a Gaussian prior on the network's matches around each source point's "
+                 "current place, in the network's normalised units (0 = off; default: the "
+                 "model's), so a pass corrects the given start instead of matching across the "
+                 "whole cloud (see docs/model.md)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--yaw-hypotheses", yaw_hypotheses,
                  "sources turned by 360°/H about z before the network, all H in one batch (0 = "
                  "the model's: 4 for a planar LiDAR model, else 1)")
@@ -589,6 +599,7 @@ int main(int argc, char** argv) {
     net.denoise = denoise;
     net.soft_sampling = sampling == "soft" ? 1 : sampling == "hard" ? 0 : -1;
     net.iterations = iterations;
+    net.spatial_sigma = spatial_sigma;
     net.yaw_hypotheses = yaw_hypotheses;
     std::vector<bench::Method> methods;
     if (!ablation.empty()) {
@@ -612,6 +623,12 @@ int main(int argc, char** argv) {
       // protocol and on request elsewhere.
       if (protocol == "kitti" || !methods_arg.empty())
         methods.push_back(obmnetMethod("obmnet+verify", net, true));
+      // Not moving at all: the pose the pair is given in, the baseline a network alone must beat
+      // where the start is a prior (consecutive sweeps and frames; on request).
+      if (!methods_arg.empty())
+        methods.push_back({"identity", [](const PointCloud&, const PointCloud&) {
+                             return bench::MethodResult(Isometry3d::Identity());
+                           }});
       // One matcher of each kind (one model load), shared by the rows that use it.
       const auto net_icp = obmnetIcpMatcher(net, unit, finish, overlap_keep);
       const auto icp = objectIcpMatcher(unit, finish);

@@ -13,7 +13,8 @@ ObmNetConfig ObmNetConfig::load(const ConfigNode& node) {
                   "loss_margin", "beta", "tau_min", "use_overlap_sampling", "use_bias_prediction",
                   "use_nmm", "nmm_score_grad", "planar", "voxel_keypoints", "neighbor_loss_nearest",
                   "shared_centroid", "edge_normals", "edge_invariant", "normal_neighbours",
-                  "ground_band", "soft_inference_sampling", "seed", "match_contrast"});
+                  "ground_band", "soft_inference_sampling", "seed", "match_contrast",
+                  "match_spatial_sigma"});
   node.get("emb_dims", c.emb_dims);
   node.get("dim", c.dim);
   node.get("k1", c.k1);
@@ -40,6 +41,7 @@ ObmNetConfig ObmNetConfig::load(const ConfigNode& node) {
   node.get("soft_inference_sampling", c.soft_inference_sampling);
   node.get("seed", c.seed);
   node.get("match_contrast", c.match_contrast);
+  node.get("match_spatial_sigma", c.match_spatial_sigma);
   c.validate(node.where());
   return c;
 }
@@ -58,6 +60,7 @@ void ObmNetConfig::validate(const std::string& where) const {
   if (n_iters < 1) fail("n_iters", "must be >= 1");
   if (!(loss_margin > 0.0)) fail("loss_margin", "must be > 0");
   if (!(match_contrast >= 0.0)) fail("match_contrast", "must be >= 0");
+  if (!(match_spatial_sigma >= 0.0)) fail("match_spatial_sigma", "must be >= 0 (0 = off)");
   if (!(beta >= 0.0)) fail("beta", "must be >= 0");
   if (!(tau_min > 0.0)) fail("tau_min", "must be > 0");
   if (!(ground_band >= 0.0)) fail("ground_band", "must be >= 0");
@@ -104,6 +107,8 @@ std::string ObmNetConfig::toYaml() const {
     out << YAML::Key << "soft_inference_sampling" << YAML::Value << soft_inference_sampling;
   if (match_contrast != ObmNetConfig{}.match_contrast)
     out << YAML::Key << "match_contrast" << YAML::Value << match_contrast;
+  if (match_spatial_sigma > 0.0)
+    out << YAML::Key << "match_spatial_sigma" << YAML::Value << match_spatial_sigma;
   out << YAML::Key << "seed" << YAML::Value << seed;
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";

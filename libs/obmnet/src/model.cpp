@@ -151,7 +151,10 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
     // one row-wise computation (refinedMatchingMap): same quantities, no full-map temporaries.
     torch::Tensor log_match, match;  // log M^r is kept for L_s
     torch::Tensor logits;            // and its logits for L_c
-    const bool fused_match = !compute_loss && !torch::GradMode::is_enabled();
+    // The spatial prior (ObmNetConfig::match_spatial_sigma) adds a term the fused kernel does not
+    // know: with it, the full map is formed.
+    const bool spatial_prior = config_.match_spatial_sigma > 0.0;
+    const bool fused_match = !compute_loss && !torch::GradMode::is_enabled() && !spatial_prior;
     if (fused_match) {
       match = obmnet::refinedMatchingMap(feat_p, feat_q, src_knn2, tgt_knn2, nmm_params,
                                          config_.use_nmm);
@@ -174,6 +177,14 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
         logits = -(torch::exp(config_.nn_margin - S) * M);
       } else {
         logits = -M;
+      }
+      if (spatial_prior) {
+        // log N(q_j; p_i, σ²) up to a constant per row: the map's rows become the feature match
+        // times a Gaussian around where the source point now is. Without gradient: the prior
+        // is geometry, fixed for this iteration like src_cur.
+        const double inv_two_var =
+            1.0 / (2.0 * config_.match_spatial_sigma * config_.match_spatial_sigma);
+        logits = logits - obmnet::pairwiseSquaredDistance(src_cur, tgt) * inv_two_var;
       }
       log_match = torch::log_softmax(logits, 2);
       match = log_match.exp();
@@ -235,6 +246,11 @@ void ObmNetImpl::setSoftInferenceSampling(bool soft) {
 void ObmNetImpl::setIterations(int n_iters) {
   OBM_ASSERT(n_iters >= 1, "ObmNet::setIterations: n_iters must be >= 1");
   config_.n_iters = n_iters;
+}
+
+void ObmNetImpl::setSpatialPrior(double sigma) {
+  OBM_ASSERT(sigma >= 0.0, "ObmNet::setSpatialPrior: sigma must be >= 0");
+  config_.match_spatial_sigma = sigma;
 }
 
 void ObmNetImpl::seedTrainingNoise(std::uint64_t seed) {

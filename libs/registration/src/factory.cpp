@@ -26,6 +26,7 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
                   "init_headings_gate",
                   "init_headings_margin",
                   "iterations",
+                  "spatial_sigma",
                   "ransac_iterations",
                   "ransac_candidates",
                   "ransac_inlier_spacing",
@@ -46,6 +47,9 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   node.get("iterations", p.iterations);
   if (p.iterations < 0)
     throw ConfigError(node.where("iterations") + ": must be >= 0 (0 = the model's)");
+  node.get("spatial_sigma", p.spatial_sigma);
+  if (!(p.spatial_sigma >= 0.0 || p.spatial_sigma == -1.0))
+    throw ConfigError(node.where("spatial_sigma") + ": must be >= 0, or -1 for the model's");
   node.get("ransac_iterations", p.ransac_iterations);
   if (p.ransac_iterations < 0)
     throw ConfigError(node.where("ransac_iterations") + ": must be >= 0 (0 = off)");

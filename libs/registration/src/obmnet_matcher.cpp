@@ -36,6 +36,7 @@ obmnet::ObmNetRegistrar makeRegistrar(const ObmNetMatcherParams& p) {
   o.soft_sampling = p.soft_sampling;
   o.yaw_hypotheses = p.yaw_hypotheses;
   o.iterations = p.iterations;
+  o.spatial_sigma = p.spatial_sigma;
   o.ransac_iterations = p.ransac_iterations;
   o.match_candidates = p.ransac_candidates;
   o.ransac_inlier_spacing = p.ransac_inlier_spacing;

@@ -102,6 +102,15 @@ struct ObmNetConfig {
   /// with `obm-train --overfit`: 0.3° in train mode, 19° with one-hot draws, 0.7° with relaxed
   /// ones; docs/model.md, "Overlap sampling at inference"). Recorded with the weights.
   bool soft_inference_sampling = false;
+  /// σ of a spatial prior on the matching map [normalised units]; 0 = off. Each matching logit
+  /// gets −‖p_i − q_j‖² / (2σ²) with p_i the source point as the iterations so far moved it, so
+  /// the soft correspondences of step 6 favour target points near their source point and a pass
+  /// starts at the identity (the pose the pair is given in) and corrects it, as ICP does, with
+  /// the features choosing among the nearby points. For pairs whose start is already close
+  /// (consecutive frames of a sensor, scan to local map), where a network free to match across
+  /// the whole cloud turns pairs that barely moved by tens of degrees. Recorded with the
+  /// weights; an inference choice as well (ObmNetImpl::setSpatialPrior).
+  double match_spatial_sigma = 0.0;
   /// Seed of the Gumbel noise. Training draws a fresh stream from it; every forward pass in eval
   /// mode re-seeds, so registering the same pair twice gives the same result.
   std::uint64_t seed = 0;

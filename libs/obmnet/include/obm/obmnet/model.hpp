@@ -69,6 +69,10 @@ class ObmNetImpl : public torch::nn::Module {
   /// pass may run more of them than training did (a larger start offset is closed in more steps).
   void setIterations(int n_iters);
 
+  /// Overrides ObmNetConfig::match_spatial_sigma (0 = no prior). An inference choice: the
+  /// weights do not change, though a model trained with the prior has features tuned to it.
+  void setSpatialPrior(double sigma);
+
   /// Restarts the train-mode Gumbel noise stream from `seed`. The trainer seeds it per step from
   /// (seed, epoch, step, rank), so a run resumed from a checkpoint draws the noise the
   /// uninterrupted run drew, and ends on the same weights bit for bit.

@@ -91,6 +91,9 @@ class ObmNetRegistrar {
     /// weights; more of them than training ran let the network close larger start offsets in
     /// steps (sweeps far apart), each step from the source as the previous ones moved it.
     int iterations = 0;
+    /// σ of the matching map's spatial prior (ObmNetConfig::match_spatial_sigma) [normalised
+    /// units]: −1 = as the model file says, 0 = off, > 0 = this σ.
+    double spatial_sigma = -1.0;
     /// A robust estimator on the network's correspondences (0 = off): RANSAC with this many
     /// minimal samples over the pairs (source point, its most probable target point in the last
     /// iteration's matching map), 4-DoF for planar models. Per hypothesis, the RANSAC pose replaces

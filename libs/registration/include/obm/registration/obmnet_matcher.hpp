@@ -51,6 +51,9 @@ struct ObmNetMatcherParams {
   /// Registration iterations of the network pass (ObmNetRegistrar::Options::iterations): 0 = the
   /// model's n_iters.
   int iterations = 0;
+  /// σ of the network's spatial prior on its matching map (ObmNetRegistrar::Options::
+  /// spatial_sigma) [normalised units]: −1 = the model's, 0 = off.
+  double spatial_sigma = -1.0;
   /// RANSAC samples on the network's correspondences (ObmNetRegistrar::Options::ransac_iterations;
   /// 0 = off, the weighted SVD alone).
   int ransac_iterations = 0;
