@@ -53,6 +53,19 @@ expect_mie_below "$work/either.json" "obmnet+icp|icp" 0.05 "easy pairs"
 "$tool" --pairs "$work/pairs" --json "$work/truth.json" --methods "icp@truth" -q \
   > "$work/log3.txt" 2>&1 || { cat "$work/log3.txt"; fail "obm-bench --methods icp@truth"; }
 expect_mie_below "$work/truth.json" "icp@truth" 0.05 "exact pairs"
+# Not moving (`identity`, on request) scores the pairs' own motion: far from zero here (the
+# sources are moved by up to 14°), and not in the default list. A negative --spatial-prior is
+# refused naming the option.
+! grep -q '"identity"' "$work/out.json" || fail "identity listed by default"
+"$tool" --pairs "$work/pairs" --json "$work/identity.json" --methods "identity" -q \
+  > "$work/log_id.txt" 2>&1 || { cat "$work/log_id.txt"; fail "obm-bench --methods identity"; }
+sed -n '/"identity": {/,/}/p' "$work/identity.json" > "$work/identity_block.json"
+lt 1 "$(num mie_r "$work/identity_block.json")" \
+  || fail "identity: MIE(R) $(num mie_r "$work/identity_block.json") on moved pairs"
+if "$tool" --pairs "$work/pairs" --spatial-prior -0.5 -q > /dev/null 2> "$work/sp.err"; then
+  fail "--spatial-prior -0.5 accepted"
+fi
+grep -q 'spatial-prior' "$work/sp.err" || { cat "$work/sp.err"; fail "the error does not name --spatial-prior"; }
 # scripts/turn_pair_sources.py (on pairs as --write-pairs writes them): turned by 10° about y
 # they stay exact (gt.txt rewritten), so the refinement started at the new truth stays there and
 # ICP from the identity, now 10° further off, still registers these easy pairs; a missing folder
