@@ -46,7 +46,8 @@ struct NetRun {
   int denoise = 0;
   int soft_sampling = -1;  ///< −1 = as the model file says, 0 = one-hot, 1 = relaxed (--sampling)
   int iterations = 0;      ///< registration iterations per pass; 0 = the model's (--iterations)
-  double spatial_sigma = -1.0;  ///< the matching map's spatial prior; −1 = the model's (--spatial-prior)
+  /// σ of the matching map's spatial prior; −1 = the model's (--spatial-prior)
+  double spatial_sigma = -1.0;
   int yaw_hypotheses = 0;  ///< 0 = the model's (--yaw-hypotheses)
   int ransac = 0;          ///< RANSAC samples on the network's correspondences (--ransac)
   /// With `ransac`: hypotheses ranked by their RANSAC consensus (the +consensus rows, the library's

@@ -674,8 +674,9 @@ TEST(ObmNet, SpatialPriorCorrectsASmallMotionAsIcpWouldAndIsRecorded) {
   const auto [rre_free, rte_free] = errors(net->forward(src, tgt));
   net->setSpatialPrior(0.03);
   const auto [rre_prior, rte_prior] = errors(net->forward(src, tgt));
-  std::printf("untrained network: without the prior %.2f deg / %.4f, with the prior %.2f deg / %.4f\n",
-              rre_free, rte_free, rre_prior, rte_prior);
+  std::printf(
+      "untrained network: without the prior %.2f deg / %.4f, with the prior %.2f deg / %.4f\n",
+      rre_free, rte_free, rre_prior, rte_prior);
   // The prior's estimate is closer than the start (3°, 0.03) in both; without it the untrained
   // features throw the pose far beyond the start.
   EXPECT_LT(rre_prior, 3.0);

@@ -34,6 +34,8 @@ ObmNetRegistrar::ObmNetRegistrar(const Options& options) : impl_(std::make_uniqu
   if (options.iterations < 0)
     throw ContractError("ObmNetRegistrar: iterations must be >= 0 (0 = the model's)");
   if (options.iterations > 0) impl_->model->setIterations(options.iterations);
+  if (options.spatial_sigma < 0.0 && options.spatial_sigma != -1.0)
+    throw ContractError("ObmNetRegistrar: spatial_sigma must be >= 0, or -1 for the model's");
   if (options.spatial_sigma >= 0.0) impl_->model->setSpatialPrior(options.spatial_sigma);
   if (options.ransac_iterations < 0 || options.match_candidates < 1 ||
       options.match_candidates > kMatchCandidates || !(options.ransac_inlier_spacing > 0.0) ||
