@@ -418,29 +418,44 @@ TEST(ModelAccuracy, SmallLidarModelHeadingByConsensusOnSimulatedRevisits) {
   EXPECT_LT(rre_cons / n, 0.5 * rre_fit / n) << "mean RRE of the network alone [deg]";
 }
 
-TEST(ModelAccuracy, IndoorModelOnPairsOfRealRgbdFrames) {
-  OBM_REQUIRE_SHARED_DATA("rgbd_open3d/trajectory.log");
-  const auto seq = io::RgbdSequence::openRedwood(test::sharedDataDir() + "/rgbd_open3d");
-  ASSERT_GE(seq.size(), 5u);
+/// The ten pairs of Open3D's five real RGB-D frames (1 cm voxels, depth 0.3–4 m): `fn(s, t,
+/// truth)` per pair, source frame j after target frame i.
+template <class Fn>
+void forEachRealFramePair(const io::RgbdSequence& seq, Fn&& fn) {
+  for (std::size_t i = 0; i < seq.size(); ++i)
+    for (std::size_t j = i + 1; j < seq.size(); ++j) {
+      const PointCloud s = voxelDownsample(seq.cloud(j, 0.3, 4.0, 2), 0.01);
+      const PointCloud t = voxelDownsample(seq.cloud(i, 0.3, 4.0, 2), 0.01);
+      const Isometry3d truth = seq.frame(i).T_world_camera.inverse() * seq.frame(j).T_world_camera;
+      std::printf("frames %zu->%zu: ", j, i);
+      fn(s, t, truth);
+    }
+}
+
+/// Network + ICP at the real frames' scale: a 5 cm gate, Huber 1 cm, inliers within 2 cm.
+registration::ObmNetIcpMatcher realFramesMatcher(const std::string& model) {
   registration::IcpParams icp;
   icp.max_correspondence_distance = 0.05;
   icp.initial_max_correspondence_distance = 0.05;
   icp.kernel_scale = 0.01;
   registration::ConfidenceParams conf;
   conf.inlier_threshold = 0.02;
-  const registration::ObmNetIcpMatcher refined(netParams(kModels + "obmnet_indoor.pt"), icp, conf);
+  return registration::ObmNetIcpMatcher(netParams(kModels + model), icp, conf);
+}
+
+TEST(ModelAccuracy, IndoorModelOnPairsOfRealRgbdFrames) {
+  OBM_REQUIRE_SHARED_DATA("rgbd_open3d/trajectory.log");
+  const auto seq = io::RgbdSequence::openRedwood(test::sharedDataDir() + "/rgbd_open3d");
+  ASSERT_GE(seq.size(), 5u);
+  const auto refined = realFramesMatcher("obmnet_indoor.pt");
   int ok = 0, n = 0;
-  for (std::size_t i = 0; i < seq.size(); ++i)
-    for (std::size_t j = i + 1; j < seq.size(); ++j) {
-      const PointCloud s = voxelDownsample(seq.cloud(j, 0.3, 4.0, 2), 0.01);
-      const PointCloud t = voxelDownsample(seq.cloud(i, 0.3, 4.0, 2), 0.01);
-      const Isometry3d truth = seq.frame(i).T_world_camera.inverse() * seq.frame(j).T_world_camera;
-      const registration::MatchResult r = refined.match(s, t);
-      const double e_r = rreDeg(r.T_target_source, truth), e_t = rte(r.T_target_source, truth);
-      std::printf("frames %zu->%zu: +ICP RRE %.2f deg RTE %.3f m\n", j, i, e_r, e_t);
-      ok += (e_r < 5.0 && e_t < 0.1) ? 1 : 0;
-      ++n;
-    }
+  forEachRealFramePair(seq, [&](const PointCloud& s, const PointCloud& t, const Isometry3d& truth) {
+    const registration::MatchResult r = refined.match(s, t);
+    const double e_r = rreDeg(r.T_target_source, truth), e_t = rte(r.T_target_source, truth);
+    std::printf("+ICP RRE %.2f deg RTE %.3f m\n", e_r, e_t);
+    ok += (e_r < 5.0 && e_t < 0.1) ? 1 : 0;
+    ++n;
+  });
   EXPECT_GE(ok, 8) << ok << " of " << n << " real frame pairs within 5° and 0.1 m";
 }
 
@@ -460,34 +475,23 @@ TEST(ModelAccuracy, FramesModelAloneOnPairsOfRealRgbdFrames) {
   };
   const auto frames = registrar("obmnet_indoor_frames.pt");
   const auto fragments = registrar("obmnet_indoor.pt");
-  registration::IcpParams icp;
-  icp.max_correspondence_distance = 0.05;
-  icp.initial_max_correspondence_distance = 0.05;
-  icp.kernel_scale = 0.01;
-  registration::ConfidenceParams conf;
-  conf.inlier_threshold = 0.02;
-  const registration::ObmNetIcpMatcher refined(netParams(kModels + "obmnet_indoor_frames.pt"),
-                                               icp, conf);
+  const auto refined = realFramesMatcher("obmnet_indoor_frames.pt");
   double sum_frames = 0.0, sum_fragments = 0.0, worst_t = 0.0;
   int ok = 0, n = 0;
-  for (std::size_t i = 0; i < seq.size(); ++i)
-    for (std::size_t j = i + 1; j < seq.size(); ++j) {
-      const PointCloud s = voxelDownsample(seq.cloud(j, 0.3, 4.0, 2), 0.01);
-      const PointCloud t = voxelDownsample(seq.cloud(i, 0.3, 4.0, 2), 0.01);
-      const Isometry3d truth = seq.frame(i).T_world_camera.inverse() * seq.frame(j).T_world_camera;
-      const Isometry3d T_f = frames.align(s, t).T_target_source;
-      const Isometry3d T_c = fragments.align(s, t).T_target_source;
-      const registration::MatchResult r = refined.match(s, t);
-      std::printf("frames %zu->%zu: frame model %.2f deg %.3f m, fragment model %.2f deg %.3f m, "
-                  "frame model + ICP %.2f deg %.3f m\n",
-                  j, i, rreDeg(T_f, truth), rte(T_f, truth), rreDeg(T_c, truth), rte(T_c, truth),
-                  rreDeg(r.T_target_source, truth), rte(r.T_target_source, truth));
-      sum_frames += rreDeg(T_f, truth);
-      sum_fragments += rreDeg(T_c, truth);
-      worst_t = std::max(worst_t, rte(T_f, truth));
-      ok += (rreDeg(r.T_target_source, truth) < 5.0 && rte(r.T_target_source, truth) < 0.1) ? 1 : 0;
-      ++n;
-    }
+  forEachRealFramePair(seq, [&](const PointCloud& s, const PointCloud& t, const Isometry3d& truth) {
+    const Isometry3d T_f = frames.align(s, t).T_target_source;
+    const Isometry3d T_c = fragments.align(s, t).T_target_source;
+    const registration::MatchResult r = refined.match(s, t);
+    std::printf("frame model %.2f deg %.3f m, fragment model %.2f deg %.3f m, "
+                "frame model + ICP %.2f deg %.3f m\n",
+                rreDeg(T_f, truth), rte(T_f, truth), rreDeg(T_c, truth), rte(T_c, truth),
+                rreDeg(r.T_target_source, truth), rte(r.T_target_source, truth));
+    sum_frames += rreDeg(T_f, truth);
+    sum_fragments += rreDeg(T_c, truth);
+    worst_t = std::max(worst_t, rte(T_f, truth));
+    ok += (rreDeg(r.T_target_source, truth) < 5.0 && rte(r.T_target_source, truth) < 0.1) ? 1 : 0;
+    ++n;
+  });
   EXPECT_LT(sum_frames / n, 0.6 * sum_fragments / n)
       << "mean RRE of the frame model " << sum_frames / n << " deg, of the fragment model "
       << sum_fragments / n << " deg";
