@@ -49,6 +49,9 @@ struct NetRun {
   /// σ of the matching map's spatial prior; −1 = the model's (--spatial-prior)
   double spatial_sigma = -1.0;
   int yaw_hypotheses = 0;  ///< 0 = the model's (--yaw-hypotheses)
+  /// More starts of the `+icp-turns` rows: ± this about each of `start_turn_axes` (--start-turns)
+  double start_turn_deg = 0.0;
+  std::string start_turn_axes = "xy";
   int ransac = 0;          ///< RANSAC samples on the network's correspondences (--ransac)
   /// With `ransac`: hypotheses ranked by their RANSAC consensus (the +consensus rows, the library's
   /// default) or by their fitness (the +ransac rows).
@@ -170,6 +173,8 @@ std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(const NetRun& n
   p.iterations = net.iterations;
   p.spatial_sigma = net.spatial_sigma;
   p.yaw_hypotheses = net.yaw_hypotheses;
+  p.start_turn_deg = net.start_turn_deg;
+  p.start_turn_axes = net.start_turn_axes;
   p.ransac_iterations = net.ransac;
   p.select_by_consensus = net.by_consensus;
   p.model_path = net.model;
@@ -197,6 +202,34 @@ bench::Method icpYawMethod(std::shared_ptr<const registration::ScanMatcher> icp,
                                                  Eigen::Vector3d::UnitZ())
                                    .toRotationMatrix(),
                                Eigen::Vector3d::Zero());
+              registration::MatchResult r = icp->match(s, t, T0);
+              if (r.status == registration::MatchStatus::TooFewCorrespondences) continue;
+              if (!best || r.inlier_ratio > best->inlier_ratio) best = std::move(r);
+            }
+            if (!best) best = icp->match(s, t, Isometry3d::Identity());
+            return matchResult(*best);
+          }};
+}
+
+/// The classical counterpart of the matcher's start turns (`icp-turns`): ICP from the identity
+/// and from the identity turned by ±`deg` about each of `axes` of the source frame, keeping the
+/// result with the largest inlier ratio (ICP's own score; the network's rows use their
+/// confidence).
+bench::Method icpTurnsMethod(std::shared_ptr<const registration::ScanMatcher> icp, double deg,
+                             const std::string& axes) {
+  return {"icp-turns", [icp, deg, axes](const PointCloud& s, const PointCloud& t) {
+            std::vector<Isometry3d> starts{Isometry3d::Identity()};
+            for (const char a : axes)
+              for (const double sign : {1.0, -1.0})
+                starts.push_back(makeIsometry(
+                    Eigen::AngleAxisd(sign * deg * kDegToRad,
+                                      a == 'x'   ? Eigen::Vector3d::UnitX()
+                                      : a == 'y' ? Eigen::Vector3d::UnitY()
+                                                 : Eigen::Vector3d::UnitZ())
+                        .toRotationMatrix(),
+                    Eigen::Vector3d::Zero()));
+            std::optional<registration::MatchResult> best;
+            for (const Isometry3d& T0 : starts) {
               registration::MatchResult r = icp->match(s, t, T0);
               if (r.status == registration::MatchStatus::TooFewCorrespondences) continue;
               if (!best || r.inlier_ratio > best->inlier_ratio) best = std::move(r);
@@ -419,6 +452,18 @@ int main(int argc, char** argv) {
                  "the model's: 4 for a planar LiDAR model, else 1)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  double start_turns = 0.0;
+  std::string start_turn_axes = "xy";
+  app.add_option("--start-turns", start_turns,
+                 "adds the rows obmnet+icp-turns and icp-turns: the network + ICP (and ICP) also "
+                 "from the start turned by ± this many degrees about each axis of "
+                 "--start-turn-axes, keeping the most confident result (0 = off)")
+      ->check(CLI::Range(0.0, 180.0))
+      ->capture_default_str();
+  app.add_option("--start-turn-axes", start_turn_axes,
+                 "the source-frame axes of --start-turns (any of x, y, z; camera: x right, y "
+                 "down)")
+      ->capture_default_str();
   app.add_flag("-q,--quiet", quiet, "no progress bars");
   apps::addLogLevelOption(app, log_level, "warn");
   CLI11_PARSE(app, argc, argv);
@@ -602,6 +647,8 @@ int main(int argc, char** argv) {
     net.iterations = iterations;
     net.spatial_sigma = spatial_sigma;
     net.yaw_hypotheses = yaw_hypotheses;
+    if (const std::string why = registration::startTurnAxesError(start_turn_axes); !why.empty())
+      throw ConfigError("--start-turn-axes: " + why);
     std::vector<bench::Method> methods;
     if (!ablation.empty()) {
       for (const auto& m : splitList(ablation)) {
@@ -643,6 +690,16 @@ int main(int argc, char** argv) {
                              objectRefineIcpParams(unit, finish), objectConfidenceParams(unit)));
         at_truth.start_at_truth = true;
         methods.push_back(at_truth);
+      }
+      // More starts for 6-DoF pairs (--start-turns): the matcher's own, chosen by its
+      // confidence, and the same starts for ICP, chosen by its inlier ratio.
+      if (start_turns > 0.0) {
+        NetRun net_t = net;
+        net_t.start_turn_deg = start_turns;
+        net_t.start_turn_axes = start_turn_axes;
+        methods.push_back(matcherMethod("obmnet+icp-turns",
+                                        obmnetIcpMatcher(net_t, unit, finish, overlap_keep)));
+        methods.push_back(icpTurnsMethod(icp, start_turns, start_turn_axes));
       }
       // Every yaw hypothesis of the network refined by ICP, and its classical counterpart (the
       // same headings tried blindly): for sweeps without a heading prior (loops).

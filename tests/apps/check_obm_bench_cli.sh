@@ -77,6 +77,19 @@ python3 "$src/scripts/turn_pair_sources.py" "$work/written" "$work/turned" --axi
 "$tool" --pairs "$work/turned" --json "$work/turned.json" --methods "icp,icp@truth" -q \
   > "$work/log4.txt" 2>&1 || { cat "$work/log4.txt"; fail "obm-bench on turned pairs"; }
 for m in icp icp@truth; do expect_mie_below "$work/turned.json" "$m" 0.05 "turned pairs"; done
+# More starts (--start-turns): the two rows appear only with it, and on the turned pairs (one
+# of the starts, −10° about y, is their original pose) both register them; an axis other than
+# x, y, z is refused naming the option.
+! grep -q '"obmnet+icp-turns"' "$work/out.json" || fail "obmnet+icp-turns listed without --start-turns"
+"$tool" --pairs "$work/turned" --json "$work/turns.json" --start-turns 10 --start-turn-axes y \
+  --methods "obmnet+icp-turns,icp-turns" -q > "$work/log5.txt" 2>&1 \
+  || { cat "$work/log5.txt"; fail "obm-bench --start-turns"; }
+for m in obmnet+icp-turns icp-turns; do expect_mie_below "$work/turns.json" "$m" 0.05 "turned pairs"; done
+if "$tool" --pairs "$work/pairs" --start-turns 10 --start-turn-axes xw -q > /dev/null \
+  2> "$work/axes.err"; then
+  fail "--start-turn-axes xw accepted"
+fi
+grep -q 'start-turn-axes' "$work/axes.err" || { cat "$work/axes.err"; fail "the error does not name --start-turn-axes"; }
 if python3 "$src/scripts/turn_pair_sources.py" "$work/none" "$work/t2" --axis x --deg 5 \
   2> "$work/turn.err"; then
   fail "turn_pair_sources.py accepted a missing folder"

@@ -128,6 +128,12 @@ TEST(RegistrationConfig, ErrorsNameFileAndKey) {
                     "obmnet.ransac_iterations");
   expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, spatial_sigma: -0.5}",
                     "obmnet.spatial_sigma");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, start_turn_deg: -5}",
+                    "obmnet.start_turn_deg");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, start_turn_axes: xw}",
+                    "obmnet.start_turn_axes");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, start_turn_axes: xx}",
+                    "obmnet.start_turn_axes");
   expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, ransac_candidates: 5}",
                     "obmnet.ransac_candidates");
   expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, ransac_inlier_spacing: 0}",
@@ -150,12 +156,15 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
       "overlap_stage_gate_factor: 3, refine_hypotheses: 0, init_headings: 8, "
       "init_headings_gate: 5, init_headings_margin: 1.2, iterations: 4, ransac_iterations: 3000, "
       "ransac_candidates: 2, ransac_inlier_spacing: 1.5, ransac_max_turn_deg: 30, "
-      "select_by_consensus: false, spatial_sigma: 0.05}"));
+      "select_by_consensus: false, spatial_sigma: 0.05, start_turn_deg: 25, start_turn_axes: zx}"));
   EXPECT_FALSE(s.obmnet.select_by_consensus);
   EXPECT_TRUE(c.obmnet.select_by_consensus);
   EXPECT_EQ(s.obmnet.iterations, 4);
   EXPECT_DOUBLE_EQ(s.obmnet.spatial_sigma, 0.05);
   EXPECT_DOUBLE_EQ(c.obmnet.spatial_sigma, -1.0);  // the shipped YAML: the model's own
+  EXPECT_DOUBLE_EQ(s.obmnet.start_turn_deg, 25.0);
+  EXPECT_EQ(s.obmnet.start_turn_axes, "zx");
+  EXPECT_DOUBLE_EQ(c.obmnet.start_turn_deg, 0.0);  // the shipped YAML: one start
   EXPECT_EQ(s.obmnet.ransac_iterations, 3000);
   EXPECT_EQ(s.obmnet.ransac_candidates, 2);
   EXPECT_DOUBLE_EQ(s.obmnet.ransac_inlier_spacing, 1.5);

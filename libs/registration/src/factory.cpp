@@ -25,6 +25,8 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
                   "init_headings",
                   "init_headings_gate",
                   "init_headings_margin",
+                  "start_turn_deg",
+                  "start_turn_axes",
                   "iterations",
                   "spatial_sigma",
                   "ransac_iterations",
@@ -75,6 +77,12 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
     throw ConfigError(node.where("init_headings_gate") + ": must be >= 0 (0 = the ICP's own)");
   if (p.init_headings < 0)
     throw ConfigError(node.where("init_headings") + ": must be >= 0 (0 = off)");
+  node.get("start_turn_deg", p.start_turn_deg);
+  if (!(p.start_turn_deg >= 0.0 && p.start_turn_deg <= 180.0))
+    throw ConfigError(node.where("start_turn_deg") + ": must be in [0, 180] (0 = off)");
+  node.get("start_turn_axes", p.start_turn_axes);
+  if (const std::string why = startTurnAxesError(p.start_turn_axes); !why.empty())
+    throw ConfigError(node.where("start_turn_axes") + ": " + why);
   if (!(p.overlap_stage_keep >= 0.0 && p.overlap_stage_keep <= 1.0))
     throw ConfigError(node.where("overlap_stage_keep") + ": must be in [0, 1]");
   if (!(p.overlap_stage_gate_factor >= 1.0))

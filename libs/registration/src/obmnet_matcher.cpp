@@ -212,7 +212,13 @@ struct ObmNetIcpMatcher::Impl {
 
 ObmNetIcpMatcher::ObmNetIcpMatcher(const ObmNetMatcherParams& params, const IcpParams& icp,
                                    const ConfidenceParams& confidence)
-    : ScanMatcher(icp, confidence), impl_(new Impl{params, makeRegistrar(params)}) {}
+    : ScanMatcher(icp, confidence) {
+  if (!(params.start_turn_deg >= 0.0 && params.start_turn_deg <= 180.0))
+    throw ConfigError("obmnet matcher: start_turn_deg must be in [0, 180] (0 = off)");
+  if (const std::string why = startTurnAxesError(params.start_turn_axes); !why.empty())
+    throw ConfigError("obmnet matcher: start_turn_axes: " + why);
+  impl_.reset(new Impl{params, makeRegistrar(params)});
+}
 
 ObmNetIcpMatcher::~ObmNetIcpMatcher() = default;
 
@@ -220,13 +226,25 @@ std::string ObmNetIcpMatcher::describe() const {
   return impl_->registrar.describe();
 }
 
-MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const PreparedTarget& target,
-                                         const Isometry3d& T_target_source_init) const {
-  const NetworkStage net =
-      runNetwork(impl_->registrar, impl_->params, source, target, T_target_source_init);
-  if (!net.ok) return networkFailure(net, T_target_source_init);
+namespace {
+
+/// One start of ObmNetIcpMatcher: the network from `T_target_source_init`, then ICP (with the
+/// overlap stage, the hypotheses and the blind headings the parameters ask for). The pose is
+/// returned before the confidence, with the network stage whose weights it carries; `net.ok` is
+/// false when the network failed (then `result` says so).
+struct Refinement {
+  MatchResult result;
+  NetworkStage net;
+};
+
+Refinement refineFrom(const obmnet::ObmNetRegistrar& registrar, const ObmNetMatcherParams& params,
+                      const IcpParams& icp_, const ConfidenceParams& confidence_,
+                      const PointCloud& source, const PreparedTarget& target,
+                      const Isometry3d& T_target_source_init) {
+  const NetworkStage net = runNetwork(registrar, params, source, target, T_target_source_init);
+  if (!net.ok) return {networkFailure(net, T_target_source_init), net};
   Isometry3d T_start = net.T_target_source;
-  if (impl_->params.keep_init_if_better) {
+  if (params.keep_init_if_better) {
     // Which start explains more source points within the first (coarsest) ICP gate?
     IcpParams first = icp_;
     first.max_correspondence_distance =
@@ -243,7 +261,7 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
                                         << n_init << " vs " << n_net << " paired points)");
     }
   }
-  const double keep = impl_->params.overlap_stage_keep;
+  const double keep = params.overlap_stage_keep;
   std::optional<Isometry3d> T_staged;
   if (keep > 0.0 && !net.sampled.empty()) {
     // Overlap stage: ICP on the points the network weights most (its SVD weights ω), so the
@@ -264,7 +282,7 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
     for (std::size_t i = 0; i < n_keep; ++i) core.push_back(net.sampled[order[i]]);
     IcpParams stage = icp_;
     stage.initial_max_correspondence_distance =
-        impl_->params.overlap_stage_gate_factor * icp_.max_correspondence_distance;
+        params.overlap_stage_gate_factor * icp_.max_correspondence_distance;
     stage.polish_max_correspondence_distance = 0.0;
     const IcpOutcome o = runIcp(core, target, T_start, stage);
     if (o.status != MatchStatus::TooFewCorrespondences) T_staged = o.T_target_source;
@@ -301,20 +319,20 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
   };
   std::size_t winner = 0;
   const std::size_t n_refine =
-      impl_->params.refine_hypotheses == 0
+      params.refine_hypotheses == 0
           ? net.hypotheses.size()
           : std::min(net.hypotheses.size(),
-                     static_cast<std::size_t>(std::max(1, impl_->params.refine_hypotheses)));
-  const int headings = impl_->params.init_headings;
+                     static_cast<std::size_t>(std::max(1, params.refine_hypotheses)));
+  const int headings = params.init_headings;
   if (n_refine > 1 || headings > 0) icp_inliers = inliers(icp);
   for (std::size_t k = 1; k < n_refine; ++k)
     if (compete(runIcp(source.points, target, net.hypotheses[k].T_target_source, icp_), 1.0))
       winner = k;
   bool heading_won = false;
   IcpParams wide = icp_;
-  if (impl_->params.init_headings_gate > 0.0)
+  if (params.init_headings_gate > 0.0)
     wide.initial_max_correspondence_distance =
-        std::max(impl_->params.init_headings_gate, icp_.max_correspondence_distance);
+        std::max(params.init_headings_gate, icp_.max_correspondence_distance);
   for (int h = 0; h < headings; ++h) {
     const Isometry3d turn =
         makeIsometry(Eigen::AngleAxisd(360.0 * kDegToRad * h / headings, Eigen::Vector3d::UnitZ())
@@ -322,16 +340,61 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
                      Eigen::Vector3d::Zero());
     // Against the network's best, not against an earlier heading: the margin is the network's.
     if (compete(runIcp(source.points, target, T_target_source_init * turn, wide),
-                heading_won ? 1.0 : impl_->params.init_headings_margin))
+                heading_won ? 1.0 : params.init_headings_margin))
       heading_won = true;
   }
   if (heading_won)
     OBM_LOG_DEBUG("registration",
                   "obmnet+icp: a blind heading from the guess has the most inliers");
   else if (winner > 0)
-    return withNetworkConfidence(icp.toMatchResult(), net.withHypothesis(winner), source, target,
-                                 icp_, confidence_);
-  return withNetworkConfidence(icp.toMatchResult(), net, source, target, icp_, confidence_);
+    return {icp.toMatchResult(), net.withHypothesis(winner)};
+  return {icp.toMatchResult(), net};
+}
+
+}  // namespace
+
+MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const PreparedTarget& target,
+                                         const Isometry3d& T_target_source_init) const {
+  const ObmNetMatcherParams& p = impl_->params;
+  Refinement best =
+      refineFrom(impl_->registrar, p, icp_, confidence_, source, target, T_target_source_init);
+  if (p.start_turn_deg > 0.0) {
+    // More starts: the source turned about its origin, p' = R·p, so the network (pre-aligned
+    // by the guess or not) sees the pair from elsewhere; a pose T' of the turned source is the
+    // pose T'·R of the source. The starts compete on the share of the network's SVD weight
+    // that lands on the target (the bias-weighted confidence), which tells a start that
+    // arrived from one that did not better than ICP's counts (docs/registration.md).
+    auto score = [&](const Refinement& r) {
+      if (!r.net.ok || r.result.status == MatchStatus::TooFewCorrespondences) return -1.0;
+      return biasWeightedConfidence(r.net, target, r.result.T_target_source,
+                                    confidence_.inlier_threshold);
+    };
+    double best_score = score(best);
+    for (const char axis : p.start_turn_axes)
+      for (const double sign : {1.0, -1.0}) {
+        const Eigen::Vector3d u = axis == 'x'   ? Eigen::Vector3d::UnitX()
+                                  : axis == 'y' ? Eigen::Vector3d::UnitY()
+                                                : Eigen::Vector3d::UnitZ();
+        const Isometry3d turn = makeIsometry(
+            Eigen::AngleAxisd(sign * p.start_turn_deg * kDegToRad, u).toRotationMatrix(),
+            Eigen::Vector3d::Zero());
+        Refinement r = refineFrom(impl_->registrar, p, icp_, confidence_,
+                                  source.transformed(turn, source.frame_id), target,
+                                  T_target_source_init);
+        const double s = score(r);
+        if (s <= best_score) continue;
+        // Back to the source's own frame: the pose, and the network's points (for the
+        // confidence and the information, evaluated once below on the untouched source).
+        r.result.T_target_source = r.result.T_target_source * turn;
+        const Eigen::Matrix3f R_back = turn.linear().transpose().cast<float>();
+        for (auto& q : r.net.sampled) q = R_back * q;
+        best = std::move(r);
+        best_score = s;
+      }
+  }
+  if (!best.net.ok) return best.result;
+  return withNetworkConfidence(std::move(best.result), best.net, source, target, icp_,
+                               confidence_);
 }
 
 struct ObmmIcpMatcher::Impl {
@@ -463,6 +526,16 @@ OverlapPrediction OverlapPredictor::predict(const PointCloud&, const PointCloud&
 }
 
 #endif
+
+std::string startTurnAxesError(const std::string& axes) {
+  if (axes.empty()) return "name at least one axis (x, y or z)";
+  for (std::size_t i = 0; i < axes.size(); ++i) {
+    if (axes[i] != 'x' && axes[i] != 'y' && axes[i] != 'z')
+      return std::string("'") + axes[i] + "' is not an axis (x, y or z)";
+    if (axes.find(axes[i]) != i) return std::string("axis '") + axes[i] + "' named twice";
+  }
+  return {};
+}
 
 bool obmNetAvailable() noexcept {
 #ifdef OBM_REGISTRATION_HAS_OBMNET

@@ -88,11 +88,27 @@ struct ObmNetMatcherParams {
   /// one. 1.08 separates the wins from the losses of the blind headings on the benchmark's loop
   /// and (i, i+20) pairs (docs/benchmarks.md, "Every hypothesis refined").
   double init_headings_margin = 1.08;
+  /// ObmNetIcpMatcher, more starts (0 = off): the network and its ICP also run from the guess
+  /// turned by +start_turn_deg and by −start_turn_deg about each axis of the source frame named
+  /// in start_turn_axes (a turn about the source's origin, the sensor), and the refinement with
+  /// the highest bias-weighted confidence (MatchResult::network_confidence) is returned. For
+  /// 6-DoF pairs without a good guess (RGB-D frames far apart, relocalisation): a network with a
+  /// spatial prior reaches only about σ from where it starts, and its confidence tells the
+  /// starts that arrived from those that did not (docs/registration.md, "More starts"). Each
+  /// start costs one network pass and its ICP.
+  double start_turn_deg = 0.0;
+  /// The axes of the start turns, any of x, y and z, each at most once. For a camera frame (x
+  /// right, y down, z forward) "xy" turns the view up/down and left/right.
+  std::string start_turn_axes = "xy";
 
   /// Reads the keys of `node` (model_path required; unknown keys rejected). A relative
   /// model_path is resolved against the folder of the YAML file.
   static ObmNetMatcherParams load(const ConfigNode& node);
 };
+
+/// Why `axes` is not a valid ObmNetMatcherParams::start_turn_axes (empty = valid): only x, y and
+/// z, each at most once, at least one.
+std::string startTurnAxesError(const std::string& axes);
 
 /// Whether this build has the OBMNet matchers (LibTorch); without it they throw ConfigError.
 bool obmNetAvailable() noexcept;
