@@ -183,6 +183,34 @@ TEST(Nmm, RefinedMatchingMapWithoutGradientEqualsTheGraph) {
         << "NMM " << use_nmm << ", max difference "
         << (kernel.to(torch::kFloat64) - reference).abs().max().item<double>();
   }
+  // With the spatial prior (σ = 0.5 on unit-scale points, strong enough to move M^r by far more
+  // than the tolerance): the final logits get −‖p_i − q_j‖²/(2σ²), M′ and S stay the features'.
+  const auto pts_p = torch::randn({B, 3, N});
+  const auto pts_q = torch::randn({B, 3, M});
+  const double sigma = 0.5;
+  const auto prior_cost = obmnet::pairwiseSquaredDistance(pts_p.to(torch::kFloat64),
+                                                          pts_q.to(torch::kFloat64)) /
+                          (2.0 * sigma * sigma);
+  for (const bool use_nmm : {true, false}) {
+    const auto cost = use_nmm ? obmnet::nmmEnhancedCost(M_feat, src_idx, tgt_idx, params) : M_feat;
+    const auto reference = torch::softmax(-(cost + prior_cost), 2);
+    ASSERT_GT((reference - torch::softmax(-cost, 2)).abs().max().item<double>(), 0.1);
+    torch::NoGradGuard ng;
+    const auto kernel = obmnet::refinedMatchingMap(fp, fq, src_idx, tgt_idx, params, use_nmm,
+                                                   sigma, pts_p, pts_q);
+    EXPECT_TRUE(torch::allclose(kernel.to(torch::kFloat64), reference, 1e-4, 1e-7))
+        << "prior, NMM " << use_nmm << ", max difference "
+        << (kernel.to(torch::kFloat64) - reference).abs().max().item<double>();
+    // The graph form (with gradient) computes the same map.
+    torch::AutoGradMode grad(true);
+    const auto graph = obmnet::refinedMatchingMap(fp.to(torch::kFloat64).requires_grad_(),
+                                                  fq.to(torch::kFloat64), src_idx, tgt_idx,
+                                                  params, use_nmm, sigma,
+                                                  pts_p.to(torch::kFloat64),
+                                                  pts_q.to(torch::kFloat64));
+    EXPECT_TRUE(torch::allclose(graph.detach(), reference, 1e-9, 1e-12))
+        << "graph, NMM " << use_nmm;
+  }
   // The kernels read M′ at the neighbour indices: one outside the cloud is refused, not read.
   torch::NoGradGuard ng;
   auto bad = tgt_idx.clone();

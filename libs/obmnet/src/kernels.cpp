@@ -190,6 +190,16 @@ OBM_VECTOR_CLONES void enhancedCost(const float* M, const float* At, const float
     cost[j] = rows::expf(gamma - invt[j * kBlock + r] * At[j * kBlock + r] * scale) * M[j];
 }
 
+/// The spatial prior on one row of the cost: cost_j += k·‖q_j − p‖² for the target coordinate
+/// rows x, y, z (n entries) and the source point p = (px, py, pz).
+OBM_VECTOR_CLONES void addSpatialPrior(float* cost, float px, float py, float pz, const float* x,
+                                       const float* y, const float* z, float k, int64_t n) {
+  for (int64_t j = 0; j < n; ++j) {
+    const float dx = x[j] - px, dy = y[j] - py, dz = z[j] - pz;
+    cost[j] += k * (dx * dx + dy * dy + dz * dz);
+  }
+}
+
 }  // namespace rows
 
 torch::Tensor knnSortedCpu(const torch::Tensor& query, const torch::Tensor& ref, int64_t k) {
@@ -260,12 +270,34 @@ torch::Tensor neighbourRowSumsCpu(const torch::Tensor& X, const torch::Tensor& i
 
 torch::Tensor matchingMapCpu(const torch::Tensor& feat_p, const torch::Tensor& feat_q,
                              const torch::Tensor& src_idx, const torch::Tensor& tgt_idx,
-                             const MatchKernelParams& params) {
+                             const MatchKernelParams& params, const torch::Tensor& src_points,
+                             const torch::Tensor& tgt_points) {
   OBM_ASSERT(feat_p.dim() == 3 && feat_q.dim() == 3 && feat_p.size(0) == feat_q.size(0) &&
                  feat_p.size(1) == feat_q.size(1) && feat_p.is_cpu() && feat_q.is_cpu() &&
                  feat_p.scalar_type() == torch::kFloat32 && feat_q.scalar_type() == torch::kFloat32,
              "matchingMapCpu expects float CPU features B×D×N and B×D×M");
   const int64_t B = feat_p.size(0), N = feat_p.size(2), M = feat_q.size(2);
+  // The spatial prior's points as float coordinate rows (B×3×N, B×3×M).
+  const bool prior = params.prior_inv_two_var > 0.0;
+  torch::Tensor pp, pq;
+  if (prior) {
+    OBM_ASSERT(src_points.defined() && tgt_points.defined() && src_points.dim() == 3 &&
+                   tgt_points.dim() == 3 && src_points.size(0) == B && src_points.size(1) == 3 &&
+                   src_points.size(2) == N && tgt_points.size(0) == B &&
+                   tgt_points.size(1) == 3 && tgt_points.size(2) == M,
+               "matchingMapCpu: the spatial prior needs points B×3×N and B×3×M");
+    pp = src_points.to(torch::kFloat32).contiguous();
+    pq = tgt_points.to(torch::kFloat32).contiguous();
+  }
+  const float* ppp = prior ? pp.data_ptr<float>() : nullptr;
+  const float* pqp = prior ? pq.data_ptr<float>() : nullptr;
+  const float prior_k = static_cast<float>(params.prior_inv_two_var);
+  // Row i of batch b of the final cost gets the prior (before the final row-softmax).
+  auto addPrior = [&](float* cost, int64_t b, int64_t i) {
+    const float* p = ppp + b * 3 * N;
+    const float* q = pqp + b * 3 * M;
+    rows::addSpatialPrior(cost, p[i], p[N + i], p[2 * N + i], q, q + M, q + 2 * M, prior_k, M);
+  };
   // Step 4: the Gram matrix by GEMM; every other operation is done row by row below.
   auto map = torch::bmm(feat_p.transpose(1, 2), feat_q).contiguous();  // B×N×M
   const auto aa = feat_p.pow(2).sum(1).contiguous();                   // B×N
@@ -280,7 +312,9 @@ torch::Tensor matchingMapCpu(const torch::Tensor& feat_p, const torch::Tensor& f
     for (int64_t row = begin; row < end; ++row) {
       float* m = mp + row * M;
       rows::featureDistances(m, ap[row], bp + (row / N) * M, M);
-      // Without NMM the refined map is the row-softmax of −M itself, in place.
+      // Without NMM the refined map is the row-softmax of −M itself (with the prior), in place;
+      // with NMM, M′ is of the features alone.
+      if (prior && !params.use_nmm) addPrior(m, row / N, row % N);
       rows::softmaxOfNegative(m, params.use_nmm ? sp + row * M : m, M);
     }
   });
@@ -329,6 +363,7 @@ torch::Tensor matchingMapCpu(const torch::Tensor& feat_p, const torch::Tensor& f
         const float scale = 1.0f / (inv_sum[r] * static_cast<float>(ks * kt));
         float* m = mp + (b * N + i0 + r) * M;
         rows::enhancedCost(m, At, invt, r, gamma, scale, M, m);
+        if (prior) addPrior(m, b, i0 + r);
         rows::softmaxOfNegative(m, m, M);
       }
     }

@@ -24,15 +24,22 @@ struct MatchKernelParams {
   bool use_nmm = true;  ///< neighbour map matching (step 5); else M^r = row-softmax(−M)
   double gamma = 0.7;   ///< γ of M^e = exp(γ − S)·M
   double beta = 1e-6;   ///< β of D_ij
+  /// The spatial prior's 1/(2σ²) (ObmNetConfig::match_spatial_sigma; 0 = off): the final cost
+  /// gets + ‖p_i − q_j‖²/(2σ²) before its row-softmax, with p_i, q_j the points given to
+  /// matchingMapCpu.
+  double prior_inv_two_var = 0.0;
 };
 
 /// The refined matching map M^r (B×N×M, rows sum to 1) from the fused features: M_ij =
 /// ‖f_pi − f_qj‖ (step 4), then, with NMM, M′ = row-softmax(−M), S from the k_s × k_t
 /// neighbourhood sums of M′ and M′², M^r = row-softmax(−exp(γ − S)·M) (step 5; nmm.hpp has the
 /// formulas). `feat_p` B×D×N, `feat_q` B×D×M, `src_idx` B×N×k_s, `tgt_idx` B×M×k_t. CPU float32,
-/// no gradient.
+/// no gradient. With params.prior_inv_two_var > 0, `src_points` B×3×N and `tgt_points` B×3×M
+/// are the points of the spatial prior (otherwise unused).
 torch::Tensor matchingMapCpu(const torch::Tensor& feat_p, const torch::Tensor& feat_q,
                              const torch::Tensor& src_idx, const torch::Tensor& tgt_idx,
-                             const MatchKernelParams& params);
+                             const MatchKernelParams& params,
+                             const torch::Tensor& src_points = {},
+                             const torch::Tensor& tgt_points = {});
 
 }  // namespace obm::obmnet::detail

@@ -151,13 +151,14 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
     // one row-wise computation (refinedMatchingMap): same quantities, no full-map temporaries.
     torch::Tensor log_match, match;  // log M^r is kept for L_s
     torch::Tensor logits;            // and its logits for L_c
-    // The spatial prior (ObmNetConfig::match_spatial_sigma) adds a term the fused kernel does not
-    // know: with it, the full map is formed.
+    // The spatial prior (ObmNetConfig::match_spatial_sigma) is geometry: added to the final
+    // logits around each source point's current place, in both forms.
     const bool spatial_prior = config_.match_spatial_sigma > 0.0;
-    const bool fused_match = !compute_loss && !torch::GradMode::is_enabled() && !spatial_prior;
+    const bool fused_match = !compute_loss && !torch::GradMode::is_enabled();
     if (fused_match) {
       match = obmnet::refinedMatchingMap(feat_p, feat_q, src_knn2, tgt_knn2, nmm_params,
-                                         config_.use_nmm);
+                                         config_.use_nmm, config_.match_spatial_sigma, src_cur,
+                                         tgt);
     } else {
       // Step 4: matching map M_ij = ‖Φ'_pi − Φ'_qj‖₂.
       const auto M = (obmnet::pairwiseSquaredDistance(feat_p, feat_q) + 1e-12).sqrt();

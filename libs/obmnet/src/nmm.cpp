@@ -89,13 +89,22 @@ torch::Tensor nmm(const torch::Tensor& M, const torch::Tensor& src_idx,
 
 torch::Tensor refinedMatchingMap(const torch::Tensor& feat_p, const torch::Tensor& feat_q,
                                  const torch::Tensor& src_idx, const torch::Tensor& tgt_idx,
-                                 const NmmParams& params, bool use_nmm) {
+                                 const NmmParams& params, bool use_nmm, double spatial_sigma,
+                                 const torch::Tensor& src_points,
+                                 const torch::Tensor& tgt_points) {
+  const double inv_two_var = spatial_sigma > 0.0 ? 1.0 / (2.0 * spatial_sigma * spatial_sigma)
+                                                 : 0.0;
   if (!torch::GradMode::is_enabled() && feat_p.is_cpu() && feat_q.is_cpu() &&
       feat_p.scalar_type() == torch::kFloat32 && feat_q.scalar_type() == torch::kFloat32)
-    return detail::matchingMapCpu(feat_p, feat_q, src_idx, tgt_idx,
-                                  detail::MatchKernelParams{use_nmm, params.gamma, params.beta});
+    return detail::matchingMapCpu(
+        feat_p, feat_q, src_idx, tgt_idx,
+        detail::MatchKernelParams{use_nmm, params.gamma, params.beta, inv_two_var}, src_points,
+        tgt_points);
   const auto M = (pairwiseSquaredDistance(feat_p, feat_q) + 1e-12).sqrt();
-  return use_nmm ? nmm(M, src_idx, tgt_idx, params) : torch::softmax(-M, 2);
+  auto cost = use_nmm ? nmmEnhancedCost(M, src_idx, tgt_idx, params) : M;
+  if (inv_two_var > 0.0)
+    cost = cost + pairwiseSquaredDistance(src_points, tgt_points) * inv_two_var;
+  return torch::softmax(-cost, 2);
 }
 
 torch::Tensor nmmEnhancedCostLiteral(const torch::Tensor& M, const torch::Tensor& src_idx,

@@ -38,9 +38,14 @@ torch::Tensor nmm(const torch::Tensor& M, const torch::Tensor& src_idx,
 /// features `feat_p` B×D×N and `feat_q` B×D×M, M_ij = ‖f_pi − f_qj‖; with `use_nmm` M^r = nmm(M),
 /// else row-softmax(−M). Without gradient, on float CPU tensors, it runs as raw row kernels (two
 /// passes over the rows, no full-map temporaries); otherwise as the tensor graph above.
+/// With `spatial_sigma` σ > 0 the final logits get the spatial prior −‖p_i − q_j‖²/(2σ²) for the
+/// points `src_points` B×3×N and `tgt_points` B×3×M (ObmNetConfig::match_spatial_sigma).
 torch::Tensor refinedMatchingMap(const torch::Tensor& feat_p, const torch::Tensor& feat_q,
                                  const torch::Tensor& src_idx, const torch::Tensor& tgt_idx,
-                                 const NmmParams& params, bool use_nmm = true);
+                                 const NmmParams& params, bool use_nmm = true,
+                                 double spatial_sigma = 0.0,
+                                 const torch::Tensor& src_points = {},
+                                 const torch::Tensor& tgt_points = {});
 
 /// Reference implementation of `nmmEnhancedCost` with the literal B×N×k×M×k gather of M′
 /// (memory and time O(N·M·k²)). For tests on small inputs only.
