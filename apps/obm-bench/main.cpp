@@ -162,7 +162,8 @@ std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(const NetRun& n
                                                                  const IcpFinish& finish,
                                                                  double overlap_keep,
                                                                  int refine_hypotheses = 1,
-                                                                 int init_headings = 0) {
+                                                                 int init_headings = 0,
+                                                                 bool pre_align = false) {
   registration::ObmNetMatcherParams p;
   p.refine_hypotheses = refine_hypotheses;
   p.init_headings = init_headings;
@@ -180,7 +181,7 @@ std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(const NetRun& n
   p.model_path = net.model;
   p.num_points = net.num_points;
   p.threads = net.threads;
-  p.pre_align = false;
+  p.pre_align = pre_align;
   p.keep_init_if_better = false;
   p.overlap_stage_keep = overlap_keep;
   return std::make_shared<registration::ObmNetIcpMatcher>(p, objectRefineIcpParams(unit, finish),
@@ -236,6 +237,26 @@ bench::Method icpTurnsMethod(std::shared_ptr<const registration::ScanMatcher> ic
             }
             if (!best) best = icp->match(s, t, Isometry3d::Identity());
             return matchResult(*best);
+          }};
+}
+
+/// A classical global start for the network (`obmnet+icp-turns+fgr`): the network + ICP from
+/// its own starts (`turns`, from the identity) and from a global method's pose (`global`, e.g.
+/// Open3D's FGR; `from_start` sees the source moved by it and corrects it), keeping the result
+/// with the higher bias-weighted confidence. What the network and its confidence add to a
+/// feature-based start.
+bench::Method globalStartMethod(const std::string& name,
+                                std::shared_ptr<const registration::ScanMatcher> turns,
+                                std::shared_ptr<const registration::ScanMatcher> from_start,
+                                bench::Method global) {
+  return {name, [turns, from_start, global](const PointCloud& s, const PointCloud& t) {
+            registration::MatchResult a = turns->match(s, t, Isometry3d::Identity());
+            const Isometry3d T_global = global.fn(s, t).T_target_source;
+            registration::MatchResult b = from_start->match(s, t, T_global);
+            const bool take_b = b.status != registration::MatchStatus::TooFewCorrespondences &&
+                                b.status != registration::MatchStatus::TooFewPoints &&
+                                b.network_confidence > a.network_confidence;
+            return matchResult(take_b ? b : a);
           }};
 }
 
@@ -735,6 +756,17 @@ int main(int argc, char** argv) {
       }
       auto o3d = bench::open3dMethods(scaledOpen3dParams(unit));
       for (const auto& m : o3d) methods.push_back(m);
+      // With --start-turns and Open3D: FGR's pose as one more start of the network.
+      if (start_turns > 0.0)
+        for (const auto& m : o3d)
+          if (m.name == "o3d_fgr") {
+            NetRun net_t = net;
+            net_t.start_turn_deg = start_turns;
+            net_t.start_turn_axes = start_turn_axes;
+            methods.push_back(globalStartMethod(
+                "obmnet+icp-turns+fgr", obmnetIcpMatcher(net_t, unit, finish, overlap_keep),
+                obmnetIcpMatcher(net, unit, finish, overlap_keep, 1, 0, true), m));
+          }
       // The module as a plug-in of the methods users have (the paper's Table 4); listed on
       // request (--methods), as they cost a network pass (two for the feature peers).
       if (!methods_arg.empty()) {
