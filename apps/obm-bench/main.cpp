@@ -244,15 +244,17 @@ bench::Method icpTurnsMethod(std::shared_ptr<const registration::ScanMatcher> ic
 /// its own starts (`turns`, from the identity) and from a global method's pose (`global`, e.g.
 /// Open3D's FGR; `from_start` sees the source moved by it and corrects it), keeping the result
 /// with the higher bias-weighted confidence. What the network and its confidence add to a
-/// feature-based start.
+/// feature-based start. Without `turns` (`obmnet+icp@fgr`): the network + ICP from the global
+/// pose alone.
 bench::Method globalStartMethod(const std::string& name,
                                 std::shared_ptr<const registration::ScanMatcher> turns,
                                 std::shared_ptr<const registration::ScanMatcher> from_start,
                                 bench::Method global) {
   return {name, [turns, from_start, global](const PointCloud& s, const PointCloud& t) {
-            registration::MatchResult a = turns->match(s, t, Isometry3d::Identity());
             const Isometry3d T_global = global.fn(s, t).T_target_source;
             registration::MatchResult b = from_start->match(s, t, T_global);
+            if (!turns) return matchResult(b);
+            registration::MatchResult a = turns->match(s, t, Isometry3d::Identity());
             const bool take_b = b.status != registration::MatchStatus::TooFewCorrespondences &&
                                 b.status != registration::MatchStatus::TooFewPoints &&
                                 b.network_confidence > a.network_confidence;
@@ -711,6 +713,11 @@ int main(int argc, char** argv) {
                              objectRefineIcpParams(unit, finish), objectConfidenceParams(unit)));
         at_truth.start_at_truth = true;
         methods.push_back(at_truth);
+        // The network alone started at the ground truth: how far its own pass moves off the
+        // answer (its floor; with a spatial prior it corrects, so it should stay).
+        bench::Method net_at_truth = obmnetMethod("obmnet@truth", net);
+        net_at_truth.start_at_truth = true;
+        methods.push_back(net_at_truth);
       }
       // More starts for 6-DoF pairs (--start-turns): the matcher's own, chosen by its
       // confidence, and the same starts for ICP, chosen by its inlier ratio.
@@ -763,9 +770,11 @@ int main(int argc, char** argv) {
             NetRun net_t = net;
             net_t.start_turn_deg = start_turns;
             net_t.start_turn_axes = start_turn_axes;
+            const auto from_fgr = obmnetIcpMatcher(net, unit, finish, overlap_keep, 1, 0, true);
             methods.push_back(globalStartMethod(
                 "obmnet+icp-turns+fgr", obmnetIcpMatcher(net_t, unit, finish, overlap_keep),
-                obmnetIcpMatcher(net, unit, finish, overlap_keep, 1, 0, true), m));
+                from_fgr, m));
+            methods.push_back(globalStartMethod("obmnet+icp@fgr", nullptr, from_fgr, m));
           }
       // The module as a plug-in of the methods users have (the paper's Table 4); listed on
       // request (--methods), as they cost a network pass (two for the feature peers).

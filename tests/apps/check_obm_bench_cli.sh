@@ -53,6 +53,11 @@ expect_mie_below "$work/either.json" "obmnet+icp|icp" 0.05 "easy pairs"
 "$tool" --pairs "$work/pairs" --json "$work/truth.json" --methods "icp@truth" -q \
   > "$work/log3.txt" 2>&1 || { cat "$work/log3.txt"; fail "obm-bench --methods icp@truth"; }
 expect_mie_below "$work/truth.json" "icp@truth" 0.05 "exact pairs"
+# The network alone started at the truth (`obmnet@truth`, on request): on shared samples it stays.
+! grep -q '"obmnet@truth"' "$work/out.json" || fail "obmnet@truth listed by default"
+"$tool" --pairs "$work/pairs" --json "$work/net_truth.json" --methods "obmnet@truth" -q \
+  > "$work/log3n.txt" 2>&1 || { cat "$work/log3n.txt"; fail "obm-bench --methods obmnet@truth"; }
+expect_mie_below "$work/net_truth.json" "obmnet@truth" 0.1 "exact pairs started at the truth"
 # Not moving (`identity`, on request) scores the pairs' own motion: far from zero here (the
 # sources are moved by up to 14°), and not in the default list. A negative --spatial-prior is
 # refused naming the option.

@@ -93,9 +93,9 @@ struct ObmNetMatcherParams {
   /// in start_turn_axes (a turn about the source's origin, the sensor), and the refinement with
   /// the highest bias-weighted confidence (MatchResult::network_confidence) is returned. For
   /// 6-DoF pairs without a good guess (RGB-D frames far apart, relocalisation): a network with a
-  /// spatial prior reaches only about σ from where it starts, and its confidence tells the
-  /// starts that arrived from those that did not (docs/registration.md, "More starts"). Each
-  /// start costs one network pass and its ICP.
+  /// spatial prior corrects the start it is given but reaches only so far from it, and its
+  /// confidence tells the starts that arrived from those that did not (docs/registration.md,
+  /// "More starts"). Each start costs one network pass and its ICP.
   double start_turn_deg = 0.0;
   /// The axes of the start turns, any of x, y and z, each at most once. For a camera frame (x
   /// right, y down, z forward) "xy" turns the view up/down and left/right.
