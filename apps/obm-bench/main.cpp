@@ -480,7 +480,8 @@ int main(int argc, char** argv) {
   app.add_option("--start-turns", start_turns,
                  "adds the rows obmnet+icp-turns and icp-turns: the network + ICP (and ICP) also "
                  "from the start turned by ± this many degrees about each axis of "
-                 "--start-turn-axes, keeping the most confident result (0 = off)")
+                 "--start-turn-axes, keeping the most confident result (0 = off); with Open3D "
+                 "also obmnet+icp-turns+fgr and obmnet+icp@fgr (FGR's pose as a start)")
       ->check(CLI::Range(0.0, 180.0))
       ->capture_default_str();
   app.add_option("--start-turn-axes", start_turn_axes,
