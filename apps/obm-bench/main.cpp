@@ -220,15 +220,8 @@ bench::Method icpTurnsMethod(std::shared_ptr<const registration::ScanMatcher> ic
                              const std::string& axes) {
   return {"icp-turns", [icp, deg, axes](const PointCloud& s, const PointCloud& t) {
             std::vector<Isometry3d> starts{Isometry3d::Identity()};
-            for (const char a : axes)
-              for (const double sign : {1.0, -1.0})
-                starts.push_back(makeIsometry(
-                    Eigen::AngleAxisd(sign * deg * kDegToRad,
-                                      a == 'x'   ? Eigen::Vector3d::UnitX()
-                                      : a == 'y' ? Eigen::Vector3d::UnitY()
-                                                 : Eigen::Vector3d::UnitZ())
-                        .toRotationMatrix(),
-                    Eigen::Vector3d::Zero()));
+            for (const Isometry3d& turn : registration::startTurns(deg, axes))
+              starts.push_back(turn);
             std::optional<registration::MatchResult> best;
             for (const Isometry3d& T0 : starts) {
               registration::MatchResult r = icp->match(s, t, T0);

@@ -370,27 +370,20 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
                                     confidence_.inlier_threshold);
     };
     double best_score = score(best);
-    for (const char axis : p.start_turn_axes)
-      for (const double sign : {1.0, -1.0}) {
-        const Eigen::Vector3d u = axis == 'x'   ? Eigen::Vector3d::UnitX()
-                                  : axis == 'y' ? Eigen::Vector3d::UnitY()
-                                                : Eigen::Vector3d::UnitZ();
-        const Isometry3d turn = makeIsometry(
-            Eigen::AngleAxisd(sign * p.start_turn_deg * kDegToRad, u).toRotationMatrix(),
-            Eigen::Vector3d::Zero());
-        Refinement r = refineFrom(impl_->registrar, p, icp_, confidence_,
-                                  source.transformed(turn, source.frame_id), target,
-                                  T_target_source_init);
-        const double s = score(r);
-        if (s <= best_score) continue;
-        // Back to the source's own frame: the pose, and the network's points (for the
-        // confidence and the information, evaluated once below on the untouched source).
-        r.result.T_target_source = r.result.T_target_source * turn;
-        const Eigen::Matrix3f R_back = turn.linear().transpose().cast<float>();
-        for (auto& q : r.net.sampled) q = R_back * q;
-        best = std::move(r);
-        best_score = s;
-      }
+    for (const Isometry3d& turn : startTurns(p.start_turn_deg, p.start_turn_axes)) {
+      Refinement r = refineFrom(impl_->registrar, p, icp_, confidence_,
+                                source.transformed(turn, source.frame_id), target,
+                                T_target_source_init);
+      const double s = score(r);
+      if (s <= best_score) continue;
+      // Back to the source's own frame: the pose, and the network's points (for the
+      // confidence and the information, evaluated once below on the untouched source).
+      r.result.T_target_source = r.result.T_target_source * turn;
+      const Eigen::Matrix3f R_back = turn.linear().transpose().cast<float>();
+      for (auto& q : r.net.sampled) q = R_back * q;
+      best = std::move(r);
+      best_score = s;
+    }
   }
   if (!best.net.ok) return best.result;
   return withNetworkConfidence(std::move(best.result), best.net, source, target, icp_,
@@ -535,6 +528,20 @@ std::string startTurnAxesError(const std::string& axes) {
     if (axes.find(axes[i]) != i) return std::string("axis '") + axes[i] + "' named twice";
   }
   return {};
+}
+
+std::vector<Isometry3d> startTurns(double deg, const std::string& axes) {
+  std::vector<Isometry3d> turns;
+  if (deg == 0.0) return turns;
+  for (const char axis : axes)
+    for (const double sign : {1.0, -1.0}) {
+      const Eigen::Vector3d u = axis == 'x'   ? Eigen::Vector3d::UnitX()
+                                : axis == 'y' ? Eigen::Vector3d::UnitY()
+                                              : Eigen::Vector3d::UnitZ();
+      turns.push_back(makeIsometry(Eigen::AngleAxisd(sign * deg * kDegToRad, u).toRotationMatrix(),
+                                   Eigen::Vector3d::Zero()));
+    }
+  return turns;
 }
 
 bool obmNetAvailable() noexcept {

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "obm/registration/scan_matcher.hpp"
 
@@ -109,6 +110,11 @@ struct ObmNetMatcherParams {
 /// Why `axes` is not a valid ObmNetMatcherParams::start_turn_axes (empty = valid): only x, y and
 /// z, each at most once, at least one.
 std::string startTurnAxesError(const std::string& axes);
+
+/// The extra starts of ObmNetMatcherParams::start_turn_deg: for each axis of `axes` (valid, see
+/// startTurnAxesError) the turn by +deg, then by −deg, about that axis of the source frame (about
+/// its origin). Empty when deg is 0.
+std::vector<Isometry3d> startTurns(double deg, const std::string& axes);
 
 /// Whether this build has the OBMNet matchers (LibTorch); without it they throw ConfigError.
 bool obmNetAvailable() noexcept;
