@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <iostream>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -149,6 +150,15 @@ int main(int argc, char** argv) {
           obm::datasets::rgbdFramePairs(src.dir, o, o.val_sequences, o.pair_gaps[0], o.pair_gaps[1],
                                     cfg.val_pairs, cfg.seed),
           n_points, cfg.seed);
+      if (!o.start_near_label.empty()) {
+        // Validation pairs start near their answer as the training pairs do: the ground truth
+        // places them (it scores validation only), so the score is where a pass from a right
+        // start ends.
+        std::mt19937_64 rng(cfg.seed);
+        for (auto& p : val)
+          obm::datasets::startNearPose(p, p.T_target_source, o.start_near_label[0],
+                                       o.start_near_label[1], rng);
+      }
       std::fprintf(stderr, "[obm-train] RGB-D frame pairs: %zu validation pairs, %d points each\n",
                    val.size(), n_points);
       trainer_ptr =

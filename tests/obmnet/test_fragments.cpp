@@ -2,6 +2,8 @@
 // normalisation on real RGB-D frames (Open3D's test frames in the shared data).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <random>
@@ -11,6 +13,7 @@
 #include "obm/datasets/object_source.hpp"
 #include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
+#include "obm/core/se3.hpp"
 #include "obm/io/redwood_log.hpp"
 #include "test_data.hpp"
 
@@ -204,4 +207,83 @@ TEST(RgbdFramePairs, PoseLabelsReplaceTheGroundTruthAndMarkThePairs) {
   EXPECT_THROW(datasets::RgbdFragmentOptions::load(
                    ConfigNode::fromString("train_sequences: [a]\npose_labels: b.txt\n", "d.yaml")),
                ConfigError);
+}
+
+TEST(RgbdFramePairs, StartNearLabelPutsEachPairWithinItsOffsetOfTheLabel) {
+  OBM_REQUIRE_SHARED_DATA("rgbd_open3d/trajectory.log");
+  // The shared frames with labels = ground truth moved by known offsets (as above): a pair that
+  // starts near its label is placed by the label times an offset of at most the given size.
+  namespace fs = std::filesystem;
+  const std::string src = test::sharedDataDir() + "/rgbd_open3d";
+  const std::string dir = test::scratchDir("rgbd_near_labels") + "/seq";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  for (const char* name : {"depth", "color", "camera_primesense.json", "trajectory.log"})
+    fs::create_symlink(fs::absolute(src + "/" + name), dir + "/" + name);
+  const auto gt = io::readRedwoodTrajectory(src + "/trajectory.log");
+  std::vector<Isometry3d> labels;
+  for (std::size_t k = 0; k < gt.size(); ++k) {
+    Isometry3d D = Isometry3d::Identity();
+    D.translation() = Eigen::Vector3d(0.0, 0.02 * static_cast<double>(k), 0.0);
+    labels.push_back(gt[k] * D);
+  }
+  io::writeRedwoodTrajectory(dir + "/labels.log", labels);
+
+  auto o = open3dOptions();
+  o.train_sequences = {dir};
+  o.pair_gaps = {1, 4};
+  o.pose_labels = "labels.log";
+  o.start_near_label = {10.0, 0.05};
+  const auto sampler = datasets::rgbdFramePairSampler("", o, 500);
+  std::mt19937_64 rng(7);
+  double largest_turn = 0.0;
+  for (int k = 0; k < 8; ++k) {
+    const obmnet::RegistrationPair p = sampler(rng, 1);
+    const auto arrow = p.name.find("->"), colon = p.name.find(':');
+    const auto j = static_cast<std::size_t>(std::stoi(p.name.substr(colon + 1, arrow - colon - 1)));
+    const auto i = static_cast<std::size_t>(std::stoi(p.name.substr(arrow + 2)));
+    ASSERT_TRUE(p.has_pose_label) << p.name;
+    // The label is now the offset Δ⁻¹ alone: within 10° and 5 cm of not moving.
+    const double turn = rotationAngle(p.T_target_source_label.linear()) * 180.0 / M_PI;
+    EXPECT_LE(turn, 10.0 + 1e-9) << p.name;
+    EXPECT_LE(p.T_target_source_label.translation().norm(), 0.05 + 1e-9) << p.name;
+    largest_turn = std::max(largest_turn, turn);
+    // Opened on its labels, the pair's pose is the label (training never sees the truth), and it
+    // moved with the source.
+    EXPECT_TRUE(p.T_target_source.isApprox(p.T_target_source_label, 1e-9)) << p.name;
+    EXPECT_LT(i, j) << p.name;
+    EXPECT_EQ(p.source.frame_id, "camera_" + std::to_string(j) + "@start");
+  }
+  EXPECT_GT(largest_turn, 1.0) << "no pair was moved off its label";
+
+  // The source points move with the pair: target ≈ T · source before and after.
+  obmnet::RegistrationPair q;
+  q.target.points = {{1.f, 0.f, 0.f}, {0.f, 2.f, 0.f}, {0.f, 0.f, 3.f}, {1.f, 1.f, 1.f}};
+  Isometry3d T = Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(0.5, -1.0, 2.0);
+  q.source = q.target.transformed(T.inverse(), "s");
+  q.T_target_source = T;
+  datasets::startNearPose(q, T, 20.0, 0.3, rng);
+  EXPECT_LE(rotationAngle(q.T_target_source.linear()) * 180.0 / M_PI, 20.0 + 1e-9);
+  EXPECT_LE(q.T_target_source.translation().norm(), 0.3 + 1e-9);
+  for (std::size_t k = 0; k < q.target.size(); ++k)
+    EXPECT_LT((q.T_target_source * q.source.points[k].cast<double>() -
+               q.target.points[k].cast<double>())
+                  .norm(),
+              1e-5);
+
+  // Refused: without labels to start near, a malformed range; each names the key.
+  for (const char* yaml : {"train_sequences: [a]\npair_gaps: [1, 2]\nstart_near_label: [5, 0.1]\n",
+                           "train_sequences: [a]\npair_gaps: [1, 2]\npose_labels: b.txt\n"
+                           "start_near_label: [200, 0.1]\n",
+                           "train_sequences: [a]\npair_gaps: [1, 2]\npose_labels: b.txt\n"
+                           "start_near_label: [5]\n"}) {
+    try {
+      datasets::RgbdFragmentOptions::load(ConfigNode::fromString(yaml, "d.yaml"));
+      FAIL() << "accepted: " << yaml;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("start_near_label"), std::string::npos) << e.what();
+    }
+  }
 }

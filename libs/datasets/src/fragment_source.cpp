@@ -1,6 +1,7 @@
 #include "obm/datasets/fragment_source.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
@@ -22,7 +23,7 @@ RgbdFragmentOptions RgbdFragmentOptions::load(const ConfigNode& node) {
   RgbdFragmentOptions o;
   node.checkKeys({"layout", "train_sequences", "val_sequences", "test_sequences",
                   "fragment_frames", "frame_step", "test_frame_step", "stride", "min_depth", "max_depth", "voxel",
-                  "radius", "pair_gaps", "pose_labels"});
+                  "radius", "pair_gaps", "pose_labels", "start_near_label"});
   node.get("layout", o.layout);
   try {
     io::parseRgbdLayout(o.layout);
@@ -43,6 +44,16 @@ RgbdFragmentOptions RgbdFragmentOptions::load(const ConfigNode& node) {
   node.get("radius", o.radius);
   node.get("pair_gaps", o.pair_gaps);
   node.get("pose_labels", o.pose_labels);
+  node.get("start_near_label", o.start_near_label);
+  if (!o.start_near_label.empty()) {
+    if (o.start_near_label.size() != 2 || !(o.start_near_label[0] >= 0.0) ||
+        !(o.start_near_label[0] <= 180.0) || !(o.start_near_label[1] >= 0.0))
+      throw ConfigError(node.where("start_near_label") +
+                        ": expected [MAX_DEG, MAX_M] with 0 <= MAX_DEG <= 180 and MAX_M >= 0");
+    if (o.pose_labels.empty())
+      throw ConfigError(node.where("start_near_label") +
+                        ": training pairs start near their pose label; set pose_labels too");
+  }
   if (o.pose_labels.find('/') != std::string::npos)
     throw ConfigError(node.where("pose_labels") + ": '" + o.pose_labels +
                       "' is a file name inside each training sequence folder, not a path");
@@ -348,8 +359,33 @@ obmnet::PairSampler rgbdFramePairSampler(const std::string& dir,
     }
     p.overlap = -1.0;
     p.name = names[si] + ":" + std::to_string(j) + "->" + std::to_string(i);
+    if (!options.start_near_label.empty())
+      startNearPose(p, p.T_target_source_label, options.start_near_label[0],
+                    options.start_near_label[1], rng);
     return p;
   };
+}
+
+void startNearPose(obmnet::RegistrationPair& pair, const Isometry3d& T_near, double max_deg,
+                   double max_m, std::mt19937_64& rng) {
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  auto direction = [&] {
+    Eigen::Vector3d v(g(rng), g(rng), g(rng));
+    while (v.norm() < 1e-9) v = Eigen::Vector3d(g(rng), g(rng), g(rng));
+    return Eigen::Vector3d(v.normalized());
+  };
+  Isometry3d delta = Isometry3d::Identity();
+  const double angle = u(rng) * max_deg * M_PI / 180.0;
+  delta.linear() = Eigen::AngleAxisd(angle, direction()).toRotationMatrix();
+  delta.translation() = u(rng) * max_m * direction();
+  // The source lands in A = Δ·T_near: target ≈ T·source = (T·A⁻¹)·(A·source), and with
+  // T = T_near the pair's pose becomes Δ⁻¹: its RRE / RTE from not moving are Δ's angle and shift.
+  const Isometry3d A = delta * T_near;
+  const std::string frame = pair.source.frame_id + "@start";
+  pair.source = pair.source.transformed(A, frame);
+  pair.T_target_source = pair.T_target_source * A.inverse();
+  if (pair.has_pose_label) pair.T_target_source_label = pair.T_target_source_label * A.inverse();
 }
 
 std::vector<obmnet::RegistrationPair> withPointCount(std::vector<obmnet::RegistrationPair> pairs,

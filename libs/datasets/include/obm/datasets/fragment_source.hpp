@@ -9,6 +9,7 @@
 /// with `source: rgbd`; the sequences may be TUM, ICL-NUIM, 7-Scenes or Redwood / Open3D folders
 /// (real, or what obm-sim writes).
 #include <cstdint>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -47,6 +48,13 @@ struct RgbdFragmentOptions {
   /// sequence; read in place of the ground truth, it gives each pair the label of the pose loss
   /// L_p (train.pose_loss_weight). Empty = no labels (unsupervised). Needs pair_gaps.
   std::string pose_labels;
+  /// [MAX_DEG, MAX_M]: each frame pair starts *near its answer* instead of where the two camera
+  /// poses put it: the source is moved by Δ · T (startNearPose), with T the pair's pose label
+  /// (training; needs pose_labels) or its ground truth (validation), Δ a random turn of up to
+  /// MAX_DEG and shift of up to MAX_M metres. A network trained so learns a pass whose fixed
+  /// point is the answer: started right (by a start turn, FGR, the motion model), it stays there.
+  /// Empty = pairs as the walk gives them.
+  std::vector<double> start_near_label;
 
   /// Reads the `rgbd:` map; unknown keys are errors naming the file.
   static RgbdFragmentOptions load(const ConfigNode& node);
@@ -81,6 +89,15 @@ std::vector<obmnet::RegistrationPair> rgbdFramePairs(const std::string& dir,
 /// attached as ground truth for reporting only; the losses never see them.
 obmnet::PairSampler rgbdFramePairSampler(const std::string& dir,
                                          const RgbdFragmentOptions& options, int num_points);
+
+/// Moves the pair's source by Δ · T_near (Δ: a turn of U[0, max_deg] degrees about a uniformly
+/// random axis through the target frame's origin, then a shift of U[0, max_m] metres in a
+/// uniformly random direction); T_target_source and, when set, the pose label follow, so both stay
+/// the transform from the moved source to the target. With T_near = T_target_source the pair's
+/// pose becomes Δ⁻¹: not moving is then max_deg / max_m from the answer at most (RRE / RTE).
+/// The source's frame_id gets "@start".
+void startNearPose(obmnet::RegistrationPair& pair, const Isometry3d& T_near, double max_deg,
+                   double max_m, std::mt19937_64& rng);
 
 /// `pairs` with each cloud sampled to exactly `num_points` from `seed` (as the sampler above
 /// does), for validation pairs that batch like the training ones.
