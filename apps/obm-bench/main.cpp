@@ -6,6 +6,7 @@
 #include <memory>
 #include <numeric>
 #include <optional>
+#include <random>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -17,6 +18,7 @@
 #include "obm/core/atomic_file.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
+#include "obm/datasets/fragment_source.hpp"
 #include "obm/datasets/object_source.hpp"
 #include "obm/datasets/scan_source.hpp"
 #include "obm/obmnet/registrar.hpp"
@@ -481,6 +483,12 @@ int main(int argc, char** argv) {
                  "the source-frame axes of --start-turns (any of x, y, z; camera: x right, y "
                  "down)")
       ->capture_default_str();
+  std::string start_near;
+  app.add_option("--start-near", start_near,
+                 "DEG,M: every pair starts near its answer instead of where it was given, the "
+                 "source moved by the ground truth times a random turn of up to DEG degrees and "
+                 "shift of up to M (the pairs' units), drawn from --seed: what each method does "
+                 "from a right start (the identity row is then that start)");
   app.add_flag("-q,--quiet", quiet, "no progress bars");
   apps::addLogLevelOption(app, log_level, "warn");
   CLI11_PARSE(app, argc, argv);
@@ -653,6 +661,17 @@ int main(int argc, char** argv) {
     const IcpFinish finish{polish, final_kernel, weak_threshold};
     if (overlap_keep < 0.0) overlap_keep = 0.5;
     if (overlap_keep > 1.0) throw ConfigError("--overlap-stage must be in [0, 1]");
+    if (!start_near.empty()) {
+      double deg = -1.0, m = -1.0;
+      char tail = 0;
+      if (std::sscanf(start_near.c_str(), "%lf,%lf%c", &deg, &m, &tail) != 2 || !(deg >= 0.0) ||
+          !(deg <= 180.0) || !(m >= 0.0))
+        throw ConfigError("--start-near: expected DEG,M with 0 <= DEG <= 180 and M >= 0, got '" +
+                          start_near + "'");
+      std::mt19937_64 rng(seed);
+      for (auto& p : pairs) datasets::startNearPose(p, p.T_target_source, deg, m, rng);
+      info += ", each started within " + start_near + " (deg, units) of its answer";
+    }
     if (!write_pairs.empty()) bench::writePairFolder(write_pairs, pairs);
 
     NetRun net;

@@ -66,6 +66,22 @@ expect_on_request "obmnet@truth" 0.1 "exact pairs started at the truth"
 sed -n '/"identity": {/,/}/p' "$work/identity.json" > "$work/identity_block.json"
 lt 1 "$(num mie_r "$work/identity_block.json")" \
   || fail "identity: MIE(R) $(num mie_r "$work/identity_block.json") on moved pairs"
+# --start-near DEG,M moves each pair near its answer: at 0,0 not moving is exact, within 3° the
+# identity is within 3°; a malformed value is refused naming the option.
+"$tool" --pairs "$work/pairs" --json "$work/near0.json" --methods "identity" --start-near 0,0 -q \
+  > "$work/log_n0.txt" 2>&1 || { cat "$work/log_n0.txt"; fail "obm-bench --start-near 0,0"; }
+expect_mie_below "$work/near0.json" identity 0.001 "pairs started at their answer"
+"$tool" --pairs "$work/pairs" --json "$work/near3.json" --methods "identity,icp" \
+  --start-near 3,0.01 -q > "$work/log_n3.txt" 2>&1 \
+  || { cat "$work/log_n3.txt"; fail "obm-bench --start-near 3,0.01"; }
+expect_mie_below "$work/near3.json" identity 3.0 "pairs started within 3 degrees"
+expect_mie_below "$work/near3.json" icp 0.05 "pairs started within 3 degrees"
+sed -n '/"identity": {/,/}/p' "$work/near3.json" > "$work/near3_id.json"
+lt 0.01 "$(num mie_r "$work/near3_id.json")" || fail "--start-near 3,0.01 did not move the pairs"
+if "$tool" --pairs "$work/pairs" --start-near 200,0.1 -q > /dev/null 2> "$work/near.err"; then
+  fail "--start-near 200,0.1 accepted"
+fi
+grep -q 'start-near' "$work/near.err" || { cat "$work/near.err"; fail "the error does not name --start-near"; }
 if "$tool" --pairs "$work/pairs" --spatial-prior -0.5 -q > /dev/null 2> "$work/sp.err"; then
   fail "--spatial-prior -0.5 accepted"
 fi
