@@ -100,6 +100,7 @@ struct IcpFinish {
   double polish = 0.0;
   double final_kernel = 0.0;
   double weak = 0.0;
+  int normal_neighbors = 10;  ///< k of the target's PCA normals
 };
 
 /// Point-to-plane ICP for unit-sphere objects: 0.1 correspondence gate annealed from 0.5, Huber
@@ -114,7 +115,7 @@ registration::IcpParams objectIcpParams(double unit, const IcpFinish& finish) {
   p.polish_max_correspondence_distance = finish.polish * unit;
   p.final_kernel_scale = finish.final_kernel * unit;
   p.weak_direction_threshold = finish.weak;
-  p.normal_neighbors = 10;
+  p.normal_neighbors = finish.normal_neighbors;
   p.max_iterations = 60;
   p.min_correspondences = 20;
   p.threads = 1;
@@ -409,6 +410,12 @@ int main(int argc, char** argv) {
                  "is below this are not moved (0 = off; see docs/obm-bench.md)")
       ->check(CLI::Range(0.0, 0.999))
       ->capture_default_str();
+  int icp_normal_neighbors = 0;
+  app.add_option("--icp-normal-neighbors", icp_normal_neighbors,
+                 "the project's ICP: k nearest target points of each PCA normal; default 10 (the "
+                 "1024-point objects), 30 for the rgbd_frames protocol (dense depth frames on a "
+                 "1 cm grid: a wider patch against the depth noise, see docs/obm-bench.md)")
+      ->check(CLI::Range(3, 1000));
   app.add_option("--overlap-stage", overlap_keep,
                  "obmnet+icp: fraction of the network's points, those with the largest SVD "
                  "weights, refined first by an ICP of their own (0 = off; default 0.5, see "
@@ -539,12 +546,14 @@ int main(int argc, char** argv) {
           std::sscanf(frame_gaps.c_str(), "%d:%d", &lo, &hi) != 2)
         throw ConfigError("--frame-gaps: expected MIN:MAX, got '" + frame_gaps + "'");
       pairs = datasets::rgbdFramePairs(dir, opts, seqs, lo, hi, n_pairs, seed);
+      if (icp_normal_neighbors <= 0) icp_normal_neighbors = 30;
       if (!app.count("--recall-deg")) recall_deg = 5.0;
       if (!app.count("--recall-trans")) recall_trans = 0.1;
       std::ostringstream os;
       os << "protocol rgbd_frames (frames i, i+s, s in [" << lo << ", " << hi << "]), "
          << pairs.size() << " pairs of the " << group << " sequences of " << config_path
-         << ", voxel " << opts.voxel << " m, seed " << seed;
+         << ", voxel " << opts.voxel << " m, seed " << seed << ", ICP normals from "
+         << icp_normal_neighbors << " neighbours";
       info = os.str();
     } else if (protocol == "kitti") {
       // RIENet's KITTI protocol: pairs (i, i + frame_gap) of sweeps, each voxelised and sampled
@@ -569,6 +578,7 @@ int main(int argc, char** argv) {
       pairs = datasets::scanPairs(scans, scans.val_sequences, cls, scan_points, n_pairs, seed);
       if (num_points < 0) num_points = scan_points;
       if (unit <= 0.0) unit = 20.0;
+      if (icp_normal_neighbors <= 0) icp_normal_neighbors = 30;
       if (!app.count("--recall-deg")) recall_deg = 5.0;  // RIENet's KITTI recall: 5° and 2 m
       if (!app.count("--recall-trans")) recall_trans = 2.0;
       std::string names;
@@ -658,7 +668,8 @@ int main(int argc, char** argv) {
     // point-to-plane minimum; a kernel near the noise level at the end removes most of that
     // (IcpParams::final_kernel_scale). Measured on object pairs only, so on by default there.
     if (final_kernel < 0.0) final_kernel = independent_objects ? 0.005 : 0.0;
-    const IcpFinish finish{polish, final_kernel, weak_threshold};
+    if (icp_normal_neighbors <= 0) icp_normal_neighbors = 10;
+    const IcpFinish finish{polish, final_kernel, weak_threshold, icp_normal_neighbors};
     if (overlap_keep < 0.0) overlap_keep = 0.5;
     if (overlap_keep > 1.0) throw ConfigError("--overlap-stage must be in [0, 1]");
     if (!start_near.empty()) {

@@ -115,6 +115,12 @@ if python3 "$src/scripts/turn_pair_sources.py" "$work/none" "$work/t2" --axis x 
   fail "turn_pair_sources.py accepted a missing folder"
 fi
 grep -q 'none/gt.txt' "$work/turn.err" || fail "turn_pair_sources.py: $(cat "$work/turn.err")"
+# The ICP's normal neighbourhood: fewer than 3 points make no plane and are refused by name.
+if "$tool" --pairs "$work/pairs" --icp-normal-neighbors 2 -q > /dev/null 2> "$work/nn.err"; then
+  fail "--icp-normal-neighbors 2 accepted"
+fi
+grep -q 'icp-normal-neighbors' "$work/nn.err" \
+  || fail "--icp-normal-neighbors not named: $(cat "$work/nn.err")"
 # The last narrow-kernel stage of the project's ICP: a negative scale is refused.
 if "$tool" --pairs "$work/pairs" --icp-final-kernel -0.1 -q > /dev/null 2> "$work/fk.err"; then
   fail "--icp-final-kernel -0.1 accepted"
