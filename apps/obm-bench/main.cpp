@@ -578,7 +578,6 @@ int main(int argc, char** argv) {
       pairs = datasets::scanPairs(scans, scans.val_sequences, cls, scan_points, n_pairs, seed);
       if (num_points < 0) num_points = scan_points;
       if (unit <= 0.0) unit = 20.0;
-      if (icp_normal_neighbors <= 0) icp_normal_neighbors = 30;
       if (!app.count("--recall-deg")) recall_deg = 5.0;  // RIENet's KITTI recall: 5° and 2 m
       if (!app.count("--recall-trans")) recall_trans = 2.0;
       std::string names;

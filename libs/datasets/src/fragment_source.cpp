@@ -370,9 +370,15 @@ void startNearPose(obmnet::RegistrationPair& pair, const Isometry3d& T_near, dou
                    double max_m, std::mt19937_64& rng) {
   std::normal_distribution<double> g(0.0, 1.0);
   std::uniform_real_distribution<double> u(0.0, 1.0);
+  // One draw per statement: the order of a constructor's arguments is unspecified, and the
+  // pairs must be the same from every compiler (z, y, x is the order this project's numbers use).
   auto direction = [&] {
-    Eigen::Vector3d v(g(rng), g(rng), g(rng));
-    while (v.norm() < 1e-9) v = Eigen::Vector3d(g(rng), g(rng), g(rng));
+    Eigen::Vector3d v = Eigen::Vector3d::Zero();
+    while (v.norm() < 1e-9) {
+      v.z() = g(rng);
+      v.y() = g(rng);
+      v.x() = g(rng);
+    }
     return Eigen::Vector3d(v.normalized());
   };
   Isometry3d delta = Isometry3d::Identity();
