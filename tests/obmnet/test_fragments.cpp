@@ -30,6 +30,33 @@ datasets::RgbdFragmentOptions open3dOptions() {
   return o;
 }
 
+
+/// A sequence folder whose images are the shared frames (linked, not copied), with a labels file
+/// `labels.log` next to them: the shared trajectory with pose k moved by k · `step` in its own
+/// frame, so a label differs from the ground-truth relative pose.
+struct LabelledFrames {
+  std::string dir;
+  std::vector<Isometry3d> gt, labels;
+};
+
+LabelledFrames labelledFrames(const std::string& scratch, const Eigen::Vector3d& step) {
+  namespace fs = std::filesystem;
+  const std::string src = test::sharedDataDir() + "/rgbd_open3d";
+  LabelledFrames f;
+  f.dir = test::scratchDir(scratch) + "/seq";
+  fs::remove_all(f.dir);
+  fs::create_directories(f.dir);
+  for (const char* name : {"depth", "color", "camera_primesense.json", "trajectory.log"})
+    fs::create_symlink(fs::absolute(src + "/" + name), f.dir + "/" + name);
+  f.gt = io::readRedwoodTrajectory(src + "/trajectory.log");
+  for (std::size_t k = 0; k < f.gt.size(); ++k) {
+    Isometry3d D = Isometry3d::Identity();
+    D.translation() = static_cast<double>(k) * step;
+    f.labels.push_back(f.gt[k] * D);
+  }
+  io::writeRedwoodTrajectory(f.dir + "/labels.log", f.labels);
+  return f;
+}
 }  // namespace
 
 TEST(RgbdFragments, RealFramesAreCentredScaledAndSampled) {
@@ -155,24 +182,10 @@ TEST(RgbdFramePairs, TrainingSamplerDrawsTwoDifferentFramesOfTheGapsAtTheirPose)
 
 TEST(RgbdFramePairs, PoseLabelsReplaceTheGroundTruthAndMarkThePairs) {
   OBM_REQUIRE_SHARED_DATA("rgbd_open3d/trajectory.log");
-  // A sequence folder whose images are the shared frames (linked, not copied), with a labels
-  // file next to them: the shared trajectory with every pose moved by its own known offset, so
-  // a label differs from the ground-truth relative pose.
-  namespace fs = std::filesystem;
-  const std::string src = test::sharedDataDir() + "/rgbd_open3d";
-  const std::string dir = test::scratchDir("rgbd_labels") + "/seq";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  for (const char* name : {"depth", "color", "camera_primesense.json", "trajectory.log"})
-    fs::create_symlink(fs::absolute(src + "/" + name), dir + "/" + name);
-  const auto gt = io::readRedwoodTrajectory(src + "/trajectory.log");
-  std::vector<Isometry3d> labels;
-  for (std::size_t k = 0; k < gt.size(); ++k) {
-    Isometry3d D = Isometry3d::Identity();
-    D.translation() = Eigen::Vector3d(0.01 * static_cast<double>(k), 0.0, 0.0);
-    labels.push_back(gt[k] * D);
-  }
-  io::writeRedwoodTrajectory(dir + "/labels.log", labels);
+  const auto f = labelledFrames("rgbd_labels", Eigen::Vector3d(0.01, 0.0, 0.0));
+  const auto& dir = f.dir;
+  const auto& gt = f.gt;
+  const auto& labels = f.labels;
 
   auto o = open3dOptions();
   o.train_sequences = {dir};
@@ -211,26 +224,12 @@ TEST(RgbdFramePairs, PoseLabelsReplaceTheGroundTruthAndMarkThePairs) {
 
 TEST(RgbdFramePairs, StartNearLabelPutsEachPairWithinItsOffsetOfTheLabel) {
   OBM_REQUIRE_SHARED_DATA("rgbd_open3d/trajectory.log");
-  // The shared frames with labels = ground truth moved by known offsets (as above): a pair that
-  // starts near its label is placed by the label times an offset of at most the given size.
-  namespace fs = std::filesystem;
-  const std::string src = test::sharedDataDir() + "/rgbd_open3d";
-  const std::string dir = test::scratchDir("rgbd_near_labels") + "/seq";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  for (const char* name : {"depth", "color", "camera_primesense.json", "trajectory.log"})
-    fs::create_symlink(fs::absolute(src + "/" + name), dir + "/" + name);
-  const auto gt = io::readRedwoodTrajectory(src + "/trajectory.log");
-  std::vector<Isometry3d> labels;
-  for (std::size_t k = 0; k < gt.size(); ++k) {
-    Isometry3d D = Isometry3d::Identity();
-    D.translation() = Eigen::Vector3d(0.0, 0.02 * static_cast<double>(k), 0.0);
-    labels.push_back(gt[k] * D);
-  }
-  io::writeRedwoodTrajectory(dir + "/labels.log", labels);
+  // The shared frames with labels (as above): a pair that starts near its label is placed by the
+  // label times an offset of at most the given size.
+  const auto f = labelledFrames("rgbd_near_labels", Eigen::Vector3d(0.0, 0.02, 0.0));
 
   auto o = open3dOptions();
-  o.train_sequences = {dir};
+  o.train_sequences = {f.dir};
   o.pair_gaps = {1, 4};
   o.pose_labels = "labels.log";
   o.start_near_label = {10.0, 0.05};
