@@ -390,15 +390,24 @@ TEST(ObmNet, InferenceWithoutGradientsEqualsTheTrainingGraphInEvalMode) {
       torch::NoGradGuard ng;
       fused = net->forward(src, tgt);
     }
-    EXPECT_TRUE(torch::allclose(fused.R, with_graph.R.detach(), 1e-3, 1e-4))
+    // Float rounding differs between the two paths (and between CPUs' vector units); three SVD
+    // iterations on random clouds magnify it to ~1.5e-4 in R on some machines. A missing or wrong
+    // term moves R by orders of magnitude more.
+    EXPECT_TRUE(torch::allclose(fused.R, with_graph.R.detach(), 1e-3, 5e-4))
         << "NMM " << use_nmm << ", max difference "
         << (fused.R - with_graph.R).abs().max().item<float>();
-    EXPECT_TRUE(torch::allclose(fused.t, with_graph.t.detach(), 1e-3, 1e-4)) << "NMM " << use_nmm;
+    EXPECT_TRUE(torch::allclose(fused.t, with_graph.t.detach(), 1e-3, 5e-4)) << "NMM " << use_nmm;
     EXPECT_TRUE(torch::allclose(fused.weights, with_graph.weights.detach(), 1e-3, 1e-4))
         << "NMM " << use_nmm;
-    // The best candidates of the last matching map and their probabilities.
-    EXPECT_TRUE(torch::equal(fused.match_index.select(2, 0), with_graph.match_index.select(2, 0)))
-        << "NMM " << use_nmm;
+    // The best candidates of the last matching map, wherever the best is not tied with the second
+    // best to rounding (within 1e-4 of its probability: a tie may fall either way; the maps of
+    // this small random network are nearly flat, gaps of ~1e-6 occur), and that is most rows.
+    const auto top2 = with_graph.match_prob.detach();
+    const auto clear = (top2.select(2, 0) - top2.select(2, 1)) > 1e-4 * top2.select(2, 0);
+    const auto same = fused.match_index.select(2, 0) == with_graph.match_index.select(2, 0);
+    EXPECT_GE(clear.to(torch::kFloat).mean().item<float>(), 0.9f) << "NMM " << use_nmm;
+    EXPECT_TRUE(torch::logical_or(same, clear.logical_not()).all().item<bool>())
+        << "NMM " << use_nmm << ": a clear best candidate differs";
     EXPECT_TRUE(torch::allclose(fused.match_prob, with_graph.match_prob.detach(), 1e-3, 1e-5))
         << "NMM " << use_nmm << ", max difference "
         << (fused.match_prob - with_graph.match_prob).abs().max().item<float>();
