@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <random>
 #include <string>
+#include <utility>
 
 #include "obm/datasets/fragment_source.hpp"
 #include "obm/datasets/object_source.hpp"
@@ -56,6 +57,12 @@ LabelledFrames labelledFrames(const std::string& scratch, const Eigen::Vector3d&
   }
   io::writeRedwoodTrajectory(f.dir + "/labels.log", f.labels);
   return f;
+}
+
+/// The frames (j, i) of a frame pair named "SEQUENCE:j->i".
+std::pair<int, int> pairFrames(const std::string& name) {
+  const auto arrow = name.find("->"), colon = name.find(':');
+  return {std::stoi(name.substr(colon + 1, arrow - colon - 1)), std::stoi(name.substr(arrow + 2))};
 }
 }  // namespace
 
@@ -152,9 +159,7 @@ TEST(RgbdFramePairs, TrainingSamplerDrawsTwoDifferentFramesOfTheGapsAtTheirPose)
     ASSERT_EQ(p.source.size(), 1500u);
     ASSERT_EQ(p.target.size(), 1500u);
     // name "rgbd_open3d:j->i", j - i in [1, 3]
-    const auto arrow = p.name.find("->"), colon = p.name.find(':');
-    const int j = std::stoi(p.name.substr(colon + 1, arrow - colon - 1));
-    const int i = std::stoi(p.name.substr(arrow + 2));
+    const auto [j, i] = pairFrames(p.name);
     EXPECT_GE(j - i, 1) << p.name;
     EXPECT_LE(j - i, 3) << p.name;
     EXPECT_EQ(p.source.frame_id, "camera_" + std::to_string(j));
@@ -183,25 +188,20 @@ TEST(RgbdFramePairs, TrainingSamplerDrawsTwoDifferentFramesOfTheGapsAtTheirPose)
 TEST(RgbdFramePairs, PoseLabelsReplaceTheGroundTruthAndMarkThePairs) {
   OBM_REQUIRE_SHARED_DATA("rgbd_open3d/trajectory.log");
   const auto f = labelledFrames("rgbd_labels", Eigen::Vector3d(0.01, 0.0, 0.0));
-  const auto& dir = f.dir;
-  const auto& gt = f.gt;
-  const auto& labels = f.labels;
-
   auto o = open3dOptions();
-  o.train_sequences = {dir};
+  o.train_sequences = {f.dir};
   o.pair_gaps = {1, 4};
   o.pose_labels = "labels.log";
   const auto sampler = datasets::rgbdFramePairSampler("", o, 500);
   std::mt19937_64 rng(5);
   for (int k = 0; k < 6; ++k) {
     const obmnet::RegistrationPair p = sampler(rng, 1);
-    const auto arrow = p.name.find("->"), colon = p.name.find(':');
-    const auto j = static_cast<std::size_t>(std::stoi(p.name.substr(colon + 1, arrow - colon - 1)));
-    const auto i = static_cast<std::size_t>(std::stoi(p.name.substr(arrow + 2)));
+    const auto [fj, fi] = pairFrames(p.name);
+    const auto j = static_cast<std::size_t>(fj), i = static_cast<std::size_t>(fi);
     ASSERT_TRUE(p.has_pose_label) << p.name;
-    const Isometry3d expected = labels[i].inverse() * labels[j];
+    const Isometry3d expected = f.labels[i].inverse() * f.labels[j];
     EXPECT_TRUE(p.T_target_source_label.isApprox(expected, 1e-6)) << p.name;
-    EXPECT_FALSE(p.T_target_source_label.isApprox(gt[i].inverse() * gt[j], 1e-6)) << p.name;
+    EXPECT_FALSE(p.T_target_source_label.isApprox(f.gt[i].inverse() * f.gt[j], 1e-6)) << p.name;
   }
   // Without labels the pairs carry none; a missing labels file is an IoError naming it.
   o.pose_labels.clear();
@@ -238,9 +238,8 @@ TEST(RgbdFramePairs, StartNearLabelPutsEachPairWithinItsOffsetOfTheLabel) {
   double largest_turn = 0.0;
   for (int k = 0; k < 8; ++k) {
     const obmnet::RegistrationPair p = sampler(rng, 1);
-    const auto arrow = p.name.find("->"), colon = p.name.find(':');
-    const auto j = static_cast<std::size_t>(std::stoi(p.name.substr(colon + 1, arrow - colon - 1)));
-    const auto i = static_cast<std::size_t>(std::stoi(p.name.substr(arrow + 2)));
+    const auto [fj, fi] = pairFrames(p.name);
+    const auto j = static_cast<std::size_t>(fj), i = static_cast<std::size_t>(fi);
     ASSERT_TRUE(p.has_pose_label) << p.name;
     // The label is now the offset Δ⁻¹ alone: within 10° and 5 cm of not moving.
     const double turn = rotationAngle(p.T_target_source_label.linear()) * 180.0 / M_PI;
