@@ -1,6 +1,7 @@
 // obm-bench: the registration benchmark (docs/metrics.md) of OBMNet against ICP and the classical
 // peers, on generated object pairs or on a folder of pairs. See docs/obm-bench.md.
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -101,6 +102,7 @@ struct IcpFinish {
   double final_kernel = 0.0;
   double weak = 0.0;
   int normal_neighbors = 10;  ///< k of the target's PCA normals
+  double color_weight = 0.0;  ///< λ of coloured ICP's photometric term (used on coloured pairs)
 };
 
 /// Point-to-plane ICP for unit-sphere objects: 0.1 correspondence gate annealed from 0.5, Huber
@@ -116,6 +118,7 @@ registration::IcpParams objectIcpParams(double unit, const IcpFinish& finish) {
   p.final_kernel_scale = finish.final_kernel * unit;
   p.weak_direction_threshold = finish.weak;
   p.normal_neighbors = finish.normal_neighbors;
+  p.color_weight = finish.color_weight;
   p.max_iterations = 60;
   p.min_correspondences = 20;
   p.threads = 1;
@@ -416,6 +419,12 @@ int main(int argc, char** argv) {
                  "1024-point objects), 30 for the rgbd_frames protocol (dense depth frames on a "
                  "1 cm grid: a wider patch against the depth noise, see docs/obm-bench.md)")
       ->check(CLI::Range(3, 1000));
+  double icp_color_weight = -1.0;
+  app.add_option("--icp-color-weight", icp_color_weight,
+                 "the project's ICP (every ICP row and the refinement after the network): weight "
+                 "λ of coloured ICP's grey-level term on pairs whose clouds carry colours (the "
+                 "rgbd_frames protocol); 0 = geometric ICP; default 0 (see docs/obm-bench.md)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--overlap-stage", overlap_keep,
                  "obmnet+icp: fraction of the network's points, those with the largest SVD "
                  "weights, refined first by an ICP of their own (0 = off; default 0.5, see "
@@ -545,7 +554,8 @@ int main(int argc, char** argv) {
       if (!frame_gaps.empty() &&
           std::sscanf(frame_gaps.c_str(), "%d:%d", &lo, &hi) != 2)
         throw ConfigError("--frame-gaps: expected MIN:MAX, got '" + frame_gaps + "'");
-      pairs = datasets::rgbdFramePairs(dir, opts, seqs, lo, hi, n_pairs, seed);
+      // With their colours: the coloured ICP rows use them, every other method sees geometry.
+      pairs = datasets::rgbdFramePairs(dir, opts, seqs, lo, hi, n_pairs, seed, true);
       if (icp_normal_neighbors <= 0) icp_normal_neighbors = 30;
       if (!app.count("--recall-deg")) recall_deg = 5.0;
       if (!app.count("--recall-trans")) recall_trans = 0.1;
@@ -668,7 +678,21 @@ int main(int argc, char** argv) {
     // (IcpParams::final_kernel_scale). Measured on object pairs only, so on by default there.
     if (final_kernel < 0.0) final_kernel = independent_objects ? 0.005 : 0.0;
     if (icp_normal_neighbors <= 0) icp_normal_neighbors = 10;
-    const IcpFinish finish{polish, final_kernel, weak_threshold, icp_normal_neighbors};
+    if (icp_color_weight < 0.0) icp_color_weight = 0.0;
+    const bool coloured_pairs =
+        !pairs.empty() && std::all_of(pairs.begin(), pairs.end(), [](const auto& p) {
+          return p.source.hasColors() && p.target.hasColors();
+        });
+    if (icp_color_weight > 0.0) {
+      if (!coloured_pairs)
+        throw ConfigError("--icp-color-weight: needs pairs whose clouds all carry colours (the "
+                          "rgbd_frames protocol with colour images)");
+      std::ostringstream os;
+      os << ", coloured ICP λ " << icp_color_weight;
+      info += os.str();
+    }
+    const IcpFinish finish{polish, final_kernel, weak_threshold, icp_normal_neighbors,
+                           icp_color_weight};
     if (overlap_keep < 0.0) overlap_keep = 0.5;
     if (overlap_keep > 1.0) throw ConfigError("--overlap-stage must be in [0, 1]");
     if (!start_near.empty()) {
@@ -784,7 +808,9 @@ int main(int argc, char** argv) {
               row + "+icp-all+yaw4", obmnetIcpMatcher(net_r, unit, finish, overlap_keep, 0, 4)));
         }
       }
-      auto o3d = bench::open3dMethods(scaledOpen3dParams(unit));
+      bench::Open3dParams o3d_params = scaledOpen3dParams(unit);
+      o3d_params.colored = coloured_pairs;
+      auto o3d = bench::open3dMethods(o3d_params);
       for (const auto& m : o3d) methods.push_back(m);
       // With --start-turns and Open3D: FGR's pose as one more start of the network.
       if (start_turns > 0.0)

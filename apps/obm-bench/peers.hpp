@@ -43,13 +43,19 @@ struct Open3dParams {
   double ransac_max_distance = 0.075;
   int ransac_iterations = 100000;
   double ransac_confidence = 0.999;
+  /// Add Open3D's coloured ICP rows (`o3d_cicp`, `o3d_fgr+cicp`): set when every pair's clouds
+  /// carry colours (RGB-D frames).
+  bool colored = false;
 };
 
 /// Whether this build has the Open3D peers.
 bool haveOpen3d();
 
-/// Open3D's point-to-plane ICP from identity, FGR (FPFH), RANSAC (FPFH), and FGR followed by ICP.
-/// Empty when Open3D is not available.
+/// Open3D's point-to-plane ICP from identity, FGR (FPFH), RANSAC (FPFH), and FGR followed by ICP;
+/// with `colored`, also Open3D's coloured ICP (Park, Zhou & Koltun 2017) from the identity and
+/// after FGR, coarse to fine over four gates (icp_max_distance, then 0.4, 0.2 and 0.1 of it, each
+/// on its own voxel grid, as in Open3D's own coloured-ICP recipe). Empty when Open3D is not
+/// available.
 std::vector<Method> open3dMethods(const Open3dParams& params);
 
 }  // namespace obm::bench

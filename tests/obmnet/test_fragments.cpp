@@ -185,6 +185,36 @@ TEST(RgbdFramePairs, TrainingSamplerDrawsTwoDifferentFramesOfTheGapsAtTheirPose)
   EXPECT_THROW(datasets::RgbdFragmentOptions::load(node), ConfigError);
 }
 
+TEST(RgbdFramePairs, WithColoursTheGeometryIsTheSameAndEveryPointHasItsColour) {
+  OBM_REQUIRE_SHARED_DATA("rgbd_open3d/trajectory.log");
+  auto o = open3dOptions();
+  o.stride = 4;
+  o.voxel = 0.02;
+  const auto plain = datasets::rgbdFramePairs("", o, o.train_sequences, 1, 3, 4, 7);
+  const auto coloured = datasets::rgbdFramePairs("", o, o.train_sequences, 1, 3, 4, 7, true);
+  ASSERT_EQ(plain.size(), coloured.size());
+  for (std::size_t k = 0; k < plain.size(); ++k) {
+    const auto& a = plain[k];
+    const auto& b = coloured[k];
+    EXPECT_EQ(a.name, b.name);
+    EXPECT_TRUE(a.T_target_source.isApprox(b.T_target_source, 1e-12)) << a.name;
+    EXPECT_FALSE(a.source.hasColors()) << a.name;
+    for (const auto* c : {&b.source, &b.target}) {
+      ASSERT_EQ(c->colors.size(), c->points.size()) << b.name;
+      // Real indoor colours: not one flat value.
+      double lo = 255.0, hi = 0.0;
+      for (const auto& rgb : c->colors) {
+        lo = std::min(lo, static_cast<double>(rgb.x()));
+        hi = std::max(hi, static_cast<double>(rgb.x()));
+      }
+      EXPECT_GT(hi - lo, 50.0) << b.name;
+    }
+    ASSERT_EQ(a.source.size(), b.source.size()) << a.name;
+    for (std::size_t i = 0; i < a.source.size(); i += 97)
+      EXPECT_EQ(a.source.points[i], b.source.points[i]) << a.name << " point " << i;
+  }
+}
+
 TEST(RgbdFramePairs, PoseLabelsReplaceTheGroundTruthAndMarkThePairs) {
   OBM_REQUIRE_SHARED_DATA("rgbd_open3d/trajectory.log");
   const auto f = labelledFrames("rgbd_labels", Eigen::Vector3d(0.01, 0.0, 0.0));

@@ -2,6 +2,7 @@
 // Synthetic scenes for the registration tests: axis-aligned rectangles (walls, floors, box
 // faces) sampled uniformly with a seeded RNG, in metres.
 #include <Eigen/Core>
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -92,6 +93,30 @@ inline Isometry3d perturbation(double trans, double deg) {
   const Eigen::Vector3d axis = Eigen::Vector3d(0.3, -0.5, 0.8).normalized();
   const Eigen::Vector3d dir = Eigen::Vector3d(0.6, 0.7, -0.4).normalized();
   return makeIsometry(Eigen::AngleAxisd(deg * kDegToRad, axis).toRotationMatrix(), trans * dir);
+}
+
+/// Grey level of the wall's texture at wall coordinates (x, y) [m]: smooth blobs of ~10 cm.
+inline double wallTexture(double x, double y) {
+  return 0.5 + 0.2 * std::sin(2.0 * M_PI * x / 0.23) * std::cos(2.0 * M_PI * y / 0.17) +
+         0.15 * std::sin(2.0 * M_PI * (x + 0.6 * y) / 0.31);
+}
+
+/// A flat textured wall 1 m in front of the camera (optical frame: z forward), sampled on a
+/// jittered grid of `step` with its own seed, so two samplings share no point.
+inline PointCloud texturedWall(double step, unsigned seed, const Isometry3d& T_cam_wall) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> jitter(-0.5 * step, 0.5 * step);
+  PointCloud cloud;
+  for (double x = -0.8; x <= 0.8; x += step)
+    for (double y = -0.6; y <= 0.6; y += step) {
+      const double u = x + jitter(rng), v = y + jitter(rng);
+      const double g = std::clamp(wallTexture(u, v), 0.0, 1.0);
+      const auto c = static_cast<std::uint8_t>(std::lround(255.0 * g));
+      const Eigen::Vector3d p = T_cam_wall * Eigen::Vector3d(u, v, 0.0);
+      cloud.points.push_back(p.cast<float>());
+      cloud.colors.push_back(Color3u8(c, c, c));
+    }
+  return cloud;
 }
 
 }  // namespace obm::test

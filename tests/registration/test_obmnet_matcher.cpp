@@ -246,6 +246,38 @@ TEST_F(ObmNetMatchers, BlindHeadingsRegisterASourceTurnedHalfwayRound) {
       << "within the margin the network's pose must be kept";
 }
 
+TEST_F(ObmNetMatchers, RefinementUsesTheColoursOfColouredClouds) {
+  // A textured wall seen from a camera moved 4 cm / 3 cm along it and turned 2° about its normal:
+  // the geometry leaves the in-plane motion free, the texture pins it. With color_weight > 0 the
+  // ICP after the network uses the clouds' colours (as IcpMatcher does); without colours, or with
+  // color_weight 0, the refinement is geometric and stays off in the plane.
+  const Isometry3d truth =
+      makeIsometry(Eigen::AngleAxisd(2.0 * kDegToRad, Eigen::Vector3d::UnitZ()).toRotationMatrix(),
+                   Eigen::Vector3d(0.04, -0.03, 0.0));
+  const Isometry3d T_cam_wall = makeIsometry(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 1));
+  const PointCloud target = test::texturedWall(0.008, 1, T_cam_wall);
+  const PointCloud source = test::texturedWall(0.012, 2, truth.inverse() * T_cam_wall);
+  registration::IcpParams icp;
+  icp.max_correspondence_distance = 0.05;
+  icp.kernel_scale = 0.01;
+  icp.max_iterations = 60;
+  icp.min_planarity = 0.0;
+  registration::IcpParams colored = icp;
+  colored.color_weight = 0.033;
+  colored.color_kernel_scale = 0.2;
+  const registration::ObmNetIcpMatcher with_colour(params(), colored);
+  const auto [ct, cr] = poseError(with_colour.match(source, target).T_target_source, truth);
+  EXPECT_LT(ct, 0.004) << "coloured refinement, translation error [m] (rotation " << cr << "°)";
+  EXPECT_LT(cr, 0.3);
+  PointCloud grey = source;
+  grey.colors.clear();
+  const auto [gt, gr] = poseError(with_colour.match(grey, target).T_target_source, truth);
+  EXPECT_GT(gt, 0.01) << "a colourless source cannot be pinned in the wall's plane";
+  const registration::ObmNetIcpMatcher geometric(params(), icp);
+  const auto [mt, mr] = poseError(geometric.match(source, target).T_target_source, truth);
+  EXPECT_GT(mt, 0.01) << "color_weight 0 must leave the refinement geometric";
+}
+
 // ---------------------------------------------------------------------------------------------
 // Every matcher that ends with ICP converges exactly on the noise-free room from a perturbed
 // guess, built through the YAML factory.

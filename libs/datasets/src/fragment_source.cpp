@@ -212,12 +212,16 @@ obmnet::ObjectSet loadRgbdFragments(const std::string& dir, const RgbdFragmentOp
 namespace {
 
 /// Frame i back-projected with the options' stride and depth range, on their voxel grid, in
-/// metres in its camera frame; geometry only.
-PointCloud frameGeometry(const io::RgbdSequence& seq, int i, const RgbdFragmentOptions& o) {
-  PointCloud c = seq.cloud(static_cast<std::size_t>(i), o.min_depth, o.max_depth, o.stride);
+/// metres in its camera frame; geometry only, or with the pixels' colours (`with_colors`, when
+/// the frame has a colour image).
+PointCloud frameGeometry(const io::RgbdSequence& seq, int i, const RgbdFragmentOptions& o,
+                         bool with_colors = false) {
+  const auto f = static_cast<std::size_t>(i);
+  const bool colour = with_colors && !seq.frame(f).color_path.empty();
+  PointCloud c = seq.cloud(f, o.min_depth, o.max_depth, o.stride, colour);
   if (o.voxel > 0.0) c = voxelDownsample(c, o.voxel);
   c.intensity.clear();
-  c.colors.clear();
+  if (!colour) c.colors.clear();
   return c;
 }
 
@@ -236,7 +240,7 @@ std::vector<obmnet::RegistrationPair> rgbdFramePairs(const std::string& dir,
                                                      const RgbdFragmentOptions& options,
                                                      const std::vector<std::string>& sequences,
                                                      int min_gap, int max_gap, int n,
-                                                     std::uint64_t seed) {
+                                                     std::uint64_t seed, bool with_colors) {
   if (min_gap < 1 || max_gap < min_gap)
     throw ConfigError("RGB-D frame pairs: need 1 <= min_gap <= max_gap, got " +
                       std::to_string(min_gap) + ".." + std::to_string(max_gap));
@@ -250,7 +254,7 @@ std::vector<obmnet::RegistrationPair> rgbdFramePairs(const std::string& dir,
     const std::string name = fs::path(path).filename().string();
     const int frames = static_cast<int>(seq.size());
     if (frames < 2) throw FormatError(path, 0, "an RGB-D pair needs at least 2 frames");
-    auto frameCloud = [&](int i) { return frameGeometry(seq, i, options); };
+    auto frameCloud = [&](int i) { return frameGeometry(seq, i, options, with_colors); };
     // A sequence too short for the gaps (e.g. a few real frames) gives each of its pairs once.
     std::vector<std::pair<int, int>> all;
     if (frames - 1 < min_gap)

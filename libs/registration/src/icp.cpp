@@ -398,16 +398,22 @@ void applyConfidence(MatchResult& result, const AlignmentStats& all_stats,
                                 all_stats.conditioning, icp.max_correspondence_distance, confidence);
 }
 
+std::vector<float> colorIntensities(const PointCloud& source, const PreparedTarget& target,
+                                    const IcpParams& params) {
+  std::vector<float> intensity;
+  if (params.color_weight > 0.0 && source.hasColors() && target.hasColorGradients()) {
+    intensity.reserve(source.size());
+    for (const auto& c : source.colors) intensity.push_back(colorIntensity(c));
+  }
+  return intensity;
+}
+
 IcpMatcher::IcpMatcher(const IcpParams& icp, const ConfidenceParams& confidence)
     : ScanMatcher(icp, confidence) {}
 
 MatchResult IcpMatcher::impl_match(const PointCloud& source, const PreparedTarget& target,
                                    const Isometry3d& T_target_source_init) const {
-  std::vector<float> intensity;
-  if (icp_.color_weight > 0.0 && source.hasColors() && target.hasColorGradients()) {
-    intensity.reserve(source.size());
-    for (const auto& c : source.colors) intensity.push_back(colorIntensity(c));
-  }
+  const std::vector<float> intensity = colorIntensities(source, target, icp_);
   const IcpOutcome icp = runIcp(source.points, target, T_target_source_init, icp_, nullptr,
                                 intensity.empty() ? nullptr : &intensity);
   MatchResult result = icp.toMatchResult();

@@ -287,11 +287,15 @@ Refinement refineFrom(const obmnet::ObmNetRegistrar& registrar, const ObmNetMatc
     const IcpOutcome o = runIcp(core, target, T_start, stage);
     if (o.status != MatchStatus::TooFewCorrespondences) T_staged = o.T_target_source;
   }
-  IcpOutcome icp = runIcp(source.points, target, T_start, icp_);
+  // Coloured ICP's photometric term on the whole source when the clouds carry colours (the
+  // overlap stage above runs on the network's sample, which has none).
+  const std::vector<float> grey = colorIntensities(source, target, icp_);
+  const std::vector<float>* source_grey = grey.empty() ? nullptr : &grey;
+  IcpOutcome icp = runIcp(source.points, target, T_start, icp_, nullptr, source_grey);
   if (T_staged) {
     // Both refinements compete on the whole source: the one that pairs more points within the
     // fine gate wins (the stage can also be misled, e.g. by outliers among the weighted points).
-    IcpOutcome staged = runIcp(source.points, target, *T_staged, icp_);
+    IcpOutcome staged = runIcp(source.points, target, *T_staged, icp_, nullptr, source_grey);
     if (staged.status != MatchStatus::TooFewCorrespondences &&
         (icp.status == MatchStatus::TooFewCorrespondences ||
          staged.num_correspondences > icp.num_correspondences))
@@ -326,7 +330,9 @@ Refinement refineFrom(const obmnet::ObmNetRegistrar& registrar, const ObmNetMatc
   const int headings = params.init_headings;
   if (n_refine > 1 || headings > 0) icp_inliers = inliers(icp);
   for (std::size_t k = 1; k < n_refine; ++k)
-    if (compete(runIcp(source.points, target, net.hypotheses[k].T_target_source, icp_), 1.0))
+    if (compete(runIcp(source.points, target, net.hypotheses[k].T_target_source, icp_, nullptr,
+                       source_grey),
+                1.0))
       winner = k;
   bool heading_won = false;
   IcpParams wide = icp_;
@@ -339,7 +345,8 @@ Refinement refineFrom(const obmnet::ObmNetRegistrar& registrar, const ObmNetMatc
                          .toRotationMatrix(),
                      Eigen::Vector3d::Zero());
     // Against the network's best, not against an earlier heading: the margin is the network's.
-    if (compete(runIcp(source.points, target, T_target_source_init * turn, wide),
+    if (compete(runIcp(source.points, target, T_target_source_init * turn, wide, nullptr,
+                       source_grey),
                 heading_won ? 1.0 : params.init_headings_margin))
       heading_won = true;
   }

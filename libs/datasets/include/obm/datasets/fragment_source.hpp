@@ -74,12 +74,14 @@ obmnet::ObjectSet loadRgbdFragments(const std::string& dir, const RgbdFragmentOp
 /// with the options' stride and depth range and put on the voxel grid, in metres, each in its own
 /// camera frame; T_target_source = T_world_i⁻¹ · T_world_j from the sequence's poses (needed).
 /// `n` pairs spread evenly over `sequences` (entries as in RgbdFragmentOptions) from `seed`;
-/// name "SEQUENCE:j->i". Throws IoError / FormatError naming the folder.
+/// name "SEQUENCE:j->i". With `with_colors`, each point keeps its pixel's colour (averaged on the
+/// voxel grid) wherever the frame has a colour image, for coloured ICP; the pairs' geometry is the
+/// same either way. Throws IoError / FormatError naming the folder.
 std::vector<obmnet::RegistrationPair> rgbdFramePairs(const std::string& dir,
                                                      const RgbdFragmentOptions& options,
                                                      const std::vector<std::string>& sequences,
                                                      int min_gap, int max_gap, int n,
-                                                     std::uint64_t seed);
+                                                     std::uint64_t seed, bool with_colors = false);
 
 /// Training pairs of two different depth frames (the frame-pair counterpart of
 /// scanPairSampler): a random training sequence (weighted by its frames), a gap s from

@@ -48,6 +48,12 @@ IcpOutcome runIcp(const std::vector<Vector3f>& source_points, const PreparedTarg
                   const std::vector<double>* point_weights = nullptr,
                   const std::vector<float>* source_intensity = nullptr);
 
+/// The source's grey levels for coloured ICP (colorIntensity() per point): empty, so that the ICP
+/// stays geometric, unless IcpParams::color_weight > 0, the source carries colours and the target
+/// was prepared with colour gradients. Shared by every matcher that refines the whole source.
+std::vector<float> colorIntensities(const PointCloud& source, const PreparedTarget& target,
+                                    const IcpParams& params);
+
 /// ICP from the initial guess alone, with the confidence of the solution.
 class IcpMatcher : public ScanMatcher {
  public:
