@@ -14,6 +14,7 @@
 #include "obm/core/atomic_file.hpp"
 #include "obm/core/csv.hpp"
 #include "obm/core/errors.hpp"
+#include "obm/core/log.hpp"
 #include "obm/core/progress.hpp"
 #include "obm/core/timer.hpp"
 #include "obm/eval/statistics.hpp"
@@ -113,9 +114,12 @@ std::vector<MethodScores> runBenchmark(const std::vector<obmnet::RegistrationPai
         T = m.start_at_truth ? Isometry3d(r.T_target_source * p.T_target_source)
                              : r.T_target_source;
         conf = std::move(r.scores);
-      } catch (const std::exception&) {
+      } catch (const std::exception& e) {
+        // Scored as a failure at the identity; the reason is logged so that it can be told from
+        // a wrong pose.
         ++s.failures;
         failed = true;
+        OBM_LOG_WARN("obm-bench", m.name << " failed on pair " << p.name << ": " << e.what());
       }
       const double ms = t.ms();
       s.per_pair.push_back(acc.add(T, p.T_target_source, ms));

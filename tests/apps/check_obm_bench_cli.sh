@@ -121,6 +121,12 @@ if "$tool" --pairs "$work/pairs" --icp-normal-neighbors 2 -q > /dev/null 2> "$wo
 fi
 grep -q 'icp-normal-neighbors' "$work/nn.err" \
   || fail "--icp-normal-neighbors not named: $(cat "$work/nn.err")"
+# Coloured ICP needs colours: pairs without them are refused, naming the option.
+if "$tool" --pairs "$work/pairs" --icp-color-weight 0.3 -q > /dev/null 2> "$work/cw.err"; then
+  fail "--icp-color-weight accepted on colourless pairs"
+fi
+grep -q 'icp-color-weight' "$work/cw.err" \
+  || fail "--icp-color-weight not named: $(cat "$work/cw.err")"
 # The last narrow-kernel stage of the project's ICP: a negative scale is refused.
 if "$tool" --pairs "$work/pairs" --icp-final-kernel -0.1 -q > /dev/null 2> "$work/fk.err"; then
   fail "--icp-final-kernel -0.1 accepted"
