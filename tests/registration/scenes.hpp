@@ -8,6 +8,7 @@
 
 #include "obm/core/point_cloud.hpp"
 #include "obm/core/se3.hpp"
+#include "obm/registration/params.hpp"
 
 namespace obm::test {
 
@@ -117,6 +118,24 @@ inline PointCloud texturedWall(double step, unsigned seed, const Isometry3d& T_c
       cloud.colors.push_back(Color3u8(c, c, c));
     }
   return cloud;
+}
+
+/// The textured wall's pose in the camera frame: 1 m in front of it.
+inline Isometry3d wallPose() {
+  Isometry3d T = Isometry3d::Identity();
+  T.translation() = Eigen::Vector3d(0.0, 0.0, 1.0);
+  return T;
+}
+
+/// ICP for the wall: 5 cm gate, Huber 1 cm, no planarity filter (the wall is one plane).
+inline registration::IcpParams wallParams() {
+  registration::IcpParams p;
+  p.max_correspondence_distance = 0.05;
+  p.kernel = registration::RobustKernel::Huber;
+  p.kernel_scale = 0.01;
+  p.max_iterations = 60;
+  p.min_planarity = 0.0;
+  return p;
 }
 
 }  // namespace obm::test

@@ -15,22 +15,8 @@ namespace {
 
 using test::poseError;
 using test::texturedWall;
-
-Isometry3d wallPose() {
-  Isometry3d T = Isometry3d::Identity();
-  T.translation() = Eigen::Vector3d(0.0, 0.0, 1.0);
-  return T;
-}
-
-registration::IcpParams wallParams() {
-  registration::IcpParams p;
-  p.max_correspondence_distance = 0.05;
-  p.kernel = registration::RobustKernel::Huber;
-  p.kernel_scale = 0.01;
-  p.max_iterations = 60;
-  p.min_planarity = 0.0;
-  return p;
-}
+using test::wallParams;
+using test::wallPose;
 
 TEST(ColoredIcp, GradientsOfALinearRampAreItsSlopeInThePlane) {
   // I = 0.1 + 2·(x + 0.2) on the plane z = 1: d = (2, 0, 0) per metre, d ⟂ n.

@@ -254,21 +254,26 @@ TEST_F(ObmNetMatchers, RefinementUsesTheColoursOfColouredClouds) {
   const Isometry3d truth =
       makeIsometry(Eigen::AngleAxisd(2.0 * kDegToRad, Eigen::Vector3d::UnitZ()).toRotationMatrix(),
                    Eigen::Vector3d(0.04, -0.03, 0.0));
-  const Isometry3d T_cam_wall = makeIsometry(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 1));
-  const PointCloud target = test::texturedWall(0.008, 1, T_cam_wall);
-  const PointCloud source = test::texturedWall(0.012, 2, truth.inverse() * T_cam_wall);
-  registration::IcpParams icp;
-  icp.max_correspondence_distance = 0.05;
-  icp.kernel_scale = 0.01;
-  icp.max_iterations = 60;
-  icp.min_planarity = 0.0;
+  const PointCloud target = test::texturedWall(0.008, 1, test::wallPose());
+  const PointCloud source = test::texturedWall(0.012, 2, truth.inverse() * test::wallPose());
+  const registration::IcpParams icp = test::wallParams();
   registration::IcpParams colored = icp;
   colored.color_weight = 0.033;
   colored.color_kernel_scale = 0.2;
   const registration::ObmNetIcpMatcher with_colour(params(), colored);
-  const auto [ct, cr] = poseError(with_colour.match(source, target).T_target_source, truth);
+  const registration::MatchResult coloured = with_colour.match(source, target);
+  const auto [ct, cr] = poseError(coloured.T_target_source, truth);
   EXPECT_LT(ct, 0.004) << "coloured refinement, translation error [m] (rotation " << cr << "°)";
   EXPECT_LT(cr, 0.3);
+  // Its conditioning is that of the coloured cost on every source point, as IcpMatcher reports it.
+  const registration::PreparedTarget prepared = with_colour.prepare(target);
+  const std::vector<float> source_grey = registration::colorIntensities(source, prepared, colored);
+  ASSERT_EQ(source_grey.size(), source.size());
+  EXPECT_DOUBLE_EQ(coloured.conditioning,
+                   registration::evaluateAlignment(source.points, nullptr, prepared,
+                                                   coloured.T_target_source, colored,
+                                                   registration::ConfidenceParams(), &source_grey)
+                       .conditioning);
   PointCloud grey = source;
   grey.colors.clear();
   const auto [gt, gr] = poseError(with_colour.match(grey, target).T_target_source, truth);

@@ -159,8 +159,12 @@ MatchResult withNetworkConfidence(MatchResult result, const NetworkStage& net,
   result.alpha = net.alpha;
   result.overlap = net.overlap;
   if (result.status == MatchStatus::TooFewCorrespondences) return result;
+  // With coloured ICP the conditioning is that of the coloured cost, as IcpMatcher reports it (a
+  // textured wall is not degenerate for it).
+  const std::vector<float> grey = colorIntensities(source, target, icp);
   const AlignmentStats all =
-      evaluateAlignment(source.points, nullptr, target, result.T_target_source, icp, confidence);
+      evaluateAlignment(source.points, nullptr, target, result.T_target_source, icp, confidence,
+                        grey.empty() ? nullptr : &grey);
   const AlignmentStats info =
       evaluateAlignment(net.sampled, &net.prior, target, result.T_target_source, icp, confidence);
   applyConfidence(result, all, info, false, icp, confidence);
