@@ -169,12 +169,17 @@ std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(const NetRun& n
                                                                  double overlap_keep,
                                                                  int refine_hypotheses = 1,
                                                                  int init_headings = 0,
-                                                                 bool pre_align = false) {
+                                                                 bool pre_align = false,
+                                                                 double init_headings_margin = 1.08,
+                                                                 bool wide_headings = true) {
   registration::ObmNetMatcherParams p;
   p.refine_hypotheses = refine_hypotheses;
   p.init_headings = init_headings;
-  // The blind headings start as the `icp` row does (its wide gate), the network's poses narrow.
-  p.init_headings_gate = objectIcpParams(unit, finish).initial_max_correspondence_distance;
+  p.init_headings_margin = init_headings_margin;
+  // The blind headings start as the `icp` row does (its wide gate), the network's poses narrow;
+  // with `wide_headings` false the headings start narrow too (a start from a global method).
+  p.init_headings_gate =
+      wide_headings ? objectIcpParams(unit, finish).initial_max_correspondence_distance : 0.0;
   p.denoise_neighbors = net.denoise;
   p.soft_sampling = net.soft_sampling;
   p.iterations = net.iterations;
@@ -824,11 +829,26 @@ int main(int argc, char** argv) {
             NetRun net_t = net;
             net_t.start_turn_deg = start_turns;
             net_t.start_turn_axes = start_turn_axes;
-            const auto from_fgr = obmnetIcpMatcher(net, unit, finish, overlap_keep, 1, 0, true);
+            // From FGR's pose: the network's pass and its ICP, and ICP from the pose itself (one
+            // "heading", from the `icp` row's wide gate), the one with more inliers kept. The
+            // network's pass moves some right starts away (docs/benchmarks.md, "A global start").
+            const auto from_fgr =
+                obmnetIcpMatcher(net, unit, finish, overlap_keep, 1, 1, true, 1.0, false);
             methods.push_back(globalStartMethod(
                 "obmnet+icp-turns+fgr", obmnetIcpMatcher(net_t, unit, finish, overlap_keep),
                 from_fgr, m));
             methods.push_back(globalStartMethod("obmnet+icp@fgr", nullptr, from_fgr, m));
+            // The classical chain with the project's refinement after FGR (the ICP after the
+            // network, its narrow gate: from the `icp` row's 0.5-unit gate good FGR poses slid
+            // off, docs/benchmarks.md, "A global start"): what the network's pass adds to the
+            // same start and the same refinement.
+            const auto refine = std::make_shared<registration::IcpMatcher>(
+                objectRefineIcpParams(unit, finish), objectConfidenceParams(unit));
+            methods.push_back({"o3d_fgr+obm_icp", [refine, m](const PointCloud& s,
+                                                              const PointCloud& t) {
+                                 return matchResult(
+                                     refine->match(s, t, m.fn(s, t).T_target_source));
+                               }});
           }
       // The module as a plug-in of the methods users have (the paper's Table 4); listed on
       // request (--methods), as they cost a network pass (two for the feature peers).

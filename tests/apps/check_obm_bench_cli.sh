@@ -105,6 +105,14 @@ for m in icp icp@truth; do expect_mie_below "$work/turned.json" "$m" 0.05 "turne
   --methods "obmnet+icp-turns,icp-turns" -q > "$work/log5.txt" 2>&1 \
   || { cat "$work/log5.txt"; fail "obm-bench --start-turns"; }
 for m in obmnet+icp-turns icp-turns; do expect_mie_below "$work/turns.json" "$m" 0.05 "turned pairs"; done
+# With Open3D: FGR's pose as a start — the network's pass and ICP from it (`obmnet+icp@fgr`), and
+# the project's ICP from it alone (`o3d_fgr+obm_icp`) — registers these easy pairs.
+if grep -q '"o3d_fgr"' "$work/out.json"; then
+  "$tool" --pairs "$work/turned" --json "$work/fgr.json" --start-turns 10 \
+    --methods "obmnet+icp@fgr,o3d_fgr+obm_icp" -q > "$work/log6.txt" 2>&1 \
+    || { cat "$work/log6.txt"; fail "obm-bench FGR-start rows"; }
+  for m in obmnet+icp@fgr o3d_fgr+obm_icp; do expect_mie_below "$work/fgr.json" "$m" 0.05 "turned pairs"; done
+fi
 if "$tool" --pairs "$work/pairs" --start-turns 10 --start-turn-axes xw -q > /dev/null \
   2> "$work/axes.err"; then
   fail "--start-turn-axes xw accepted"
