@@ -830,8 +830,9 @@ int main(int argc, char** argv) {
             net_t.start_turn_deg = start_turns;
             net_t.start_turn_axes = start_turn_axes;
             // From FGR's pose: the network's pass and its ICP, and ICP from the pose itself (one
-            // "heading", from the `icp` row's wide gate), the one with more inliers kept. The
-            // network's pass moves some right starts away (docs/benchmarks.md, "A global start").
+            // "heading", from the refinement's narrow gate), the one with more inliers kept. The
+            // network's pass moves some right starts away (docs/benchmarks.md, "A global start
+            // for frame pairs").
             const auto from_fgr =
                 obmnetIcpMatcher(net, unit, finish, overlap_keep, 1, 1, true, 1.0, false);
             methods.push_back(globalStartMethod(
@@ -840,8 +841,8 @@ int main(int argc, char** argv) {
             methods.push_back(globalStartMethod("obmnet+icp@fgr", nullptr, from_fgr, m));
             // The classical chain with the project's refinement after FGR (the ICP after the
             // network, its narrow gate: from the `icp` row's 0.5-unit gate good FGR poses slid
-            // off, docs/benchmarks.md, "A global start"): what the network's pass adds to the
-            // same start and the same refinement.
+            // off, docs/benchmarks.md, "A global start for frame pairs"): what the network's
+            // pass adds to the same start and the same refinement.
             const auto refine = std::make_shared<registration::IcpMatcher>(
                 objectRefineIcpParams(unit, finish), objectConfidenceParams(unit));
             methods.push_back({"o3d_fgr+obm_icp", [refine, m](const PointCloud& s,
