@@ -164,22 +164,17 @@ registration::IcpParams objectRefineIcpParams(double unit, const IcpFinish& fini
   return p;
 }
 
-std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(const NetRun& net, double unit,
-                                                                 const IcpFinish& finish,
-                                                                 double overlap_keep,
-                                                                 int refine_hypotheses = 1,
-                                                                 int init_headings = 0,
-                                                                 bool pre_align = false,
-                                                                 double init_headings_margin = 1.08,
-                                                                 bool wide_headings = true) {
+/// The settings of the `obmnet+icp` rows' matcher (the network as `net` says, then the
+/// refinement's narrow ICP).
+registration::ObmNetMatcherParams obmnetIcpParams(const NetRun& net, double unit,
+                                                  const IcpFinish& finish, double overlap_keep,
+                                                  int refine_hypotheses = 1,
+                                                  int init_headings = 0, bool pre_align = false) {
   registration::ObmNetMatcherParams p;
   p.refine_hypotheses = refine_hypotheses;
   p.init_headings = init_headings;
-  p.init_headings_margin = init_headings_margin;
-  // The blind headings start as the `icp` row does (its wide gate), the network's poses narrow;
-  // with `wide_headings` false the headings start narrow too (a start from a global method).
-  p.init_headings_gate =
-      wide_headings ? objectIcpParams(unit, finish).initial_max_correspondence_distance : 0.0;
+  // The blind headings start as the `icp` row does (its wide gate), the network's poses narrow.
+  p.init_headings_gate = objectIcpParams(unit, finish).initial_max_correspondence_distance;
   p.denoise_neighbors = net.denoise;
   p.soft_sampling = net.soft_sampling;
   p.iterations = net.iterations;
@@ -195,8 +190,30 @@ std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(const NetRun& n
   p.pre_align = pre_align;
   p.keep_init_if_better = false;
   p.overlap_stage_keep = overlap_keep;
+  return p;
+}
+
+std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(
+    const registration::ObmNetMatcherParams& p, double unit, const IcpFinish& finish) {
   return std::make_shared<registration::ObmNetIcpMatcher>(p, objectRefineIcpParams(unit, finish),
                                                           objectConfidenceParams(unit));
+}
+
+std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(const NetRun& net, double unit,
+                                                                 const IcpFinish& finish,
+                                                                 double overlap_keep,
+                                                                 int refine_hypotheses = 1,
+                                                                 int init_headings = 0) {
+  return obmnetIcpMatcher(
+      obmnetIcpParams(net, unit, finish, overlap_keep, refine_hypotheses, init_headings), unit,
+      finish);
+}
+
+/// The refinement after the network on its own (narrow gate): `icp@truth`, `o3d_fgr+obm_icp`.
+std::shared_ptr<registration::IcpMatcher> objectRefineIcpMatcher(double unit,
+                                                                 const IcpFinish& finish) {
+  return std::make_shared<registration::IcpMatcher>(objectRefineIcpParams(unit, finish),
+                                                    objectConfidenceParams(unit));
 }
 
 /// The classical counterpart of the network's yaw hypotheses (`icp-yaw4`): ICP from the identity
@@ -765,9 +782,8 @@ int main(int argc, char** argv) {
       // The refinement of `obmnet+icp` started at the ground truth: where it leaves the answer,
       // the ceiling of every refined row (a diagnostic; on request).
       if (!methods_arg.empty()) {
-        bench::Method at_truth = matcherMethod(
-            "icp@truth", std::make_shared<registration::IcpMatcher>(
-                             objectRefineIcpParams(unit, finish), objectConfidenceParams(unit)));
+        bench::Method at_truth =
+            matcherMethod("icp@truth", objectRefineIcpMatcher(unit, finish));
         at_truth.start_at_truth = true;
         methods.push_back(at_truth);
         // The network alone started at the ground truth: how far its own pass moves off the
@@ -830,11 +846,14 @@ int main(int argc, char** argv) {
             net_t.start_turn_deg = start_turns;
             net_t.start_turn_axes = start_turn_axes;
             // From FGR's pose: the network's pass and its ICP, and ICP from the pose itself (one
-            // "heading", from the refinement's narrow gate), the one with more inliers kept. The
-            // network's pass moves some right starts away (docs/benchmarks.md, "A global start
-            // for frame pairs").
-            const auto from_fgr =
-                obmnetIcpMatcher(net, unit, finish, overlap_keep, 1, 1, true, 1.0, false);
+            // "heading", from the refinement's narrow gate, no margin), the one with more inliers
+            // kept. The network's pass moves some right starts away (docs/benchmarks.md, "A
+            // global start for frame pairs").
+            registration::ObmNetMatcherParams at_fgr =
+                obmnetIcpParams(net, unit, finish, overlap_keep, 1, 1, true);
+            at_fgr.init_headings_gate = 0.0;
+            at_fgr.init_headings_margin = 1.0;
+            const auto from_fgr = obmnetIcpMatcher(at_fgr, unit, finish);
             methods.push_back(globalStartMethod(
                 "obmnet+icp-turns+fgr", obmnetIcpMatcher(net_t, unit, finish, overlap_keep),
                 from_fgr, m));
@@ -843,8 +862,7 @@ int main(int argc, char** argv) {
             // network, its narrow gate: from the `icp` row's 0.5-unit gate good FGR poses slid
             // off, docs/benchmarks.md, "A global start for frame pairs"): what the network's
             // pass adds to the same start and the same refinement.
-            const auto refine = std::make_shared<registration::IcpMatcher>(
-                objectRefineIcpParams(unit, finish), objectConfidenceParams(unit));
+            const auto refine = objectRefineIcpMatcher(unit, finish);
             methods.push_back({"o3d_fgr+obm_icp", [refine, m](const PointCloud& s,
                                                               const PointCloud& t) {
                                  return matchResult(
