@@ -55,7 +55,7 @@ struct NetRun {
   /// More starts of the `+icp-turns` rows: ± this about each of `start_turn_axes` (--start-turns)
   double start_turn_deg = 0.0;
   std::string start_turn_axes = "xy";
-  int ransac = 0;          ///< RANSAC samples on the network's correspondences (--ransac)
+  int ransac = 0;  ///< RANSAC samples on the network's correspondences (--ransac)
   /// With `ransac`: hypotheses ranked by their RANSAC consensus (the +consensus rows, the library's
   /// default) or by their fitness (the +ransac rows).
   bool by_consensus = false;
@@ -103,6 +103,9 @@ struct IcpFinish {
   double weak = 0.0;
   int normal_neighbors = 10;  ///< k of the target's PCA normals
   double color_weight = 0.0;  ///< λ of coloured ICP's photometric term (used on coloured pairs)
+  /// Grey residual an inlier may have on coloured pairs (ConfidenceParams::color_inlier_threshold;
+  /// 0 = geometric inliers).
+  double color_inlier = 0.0;
 };
 
 /// Point-to-plane ICP for unit-sphere objects: 0.1 correspondence gate annealed from 0.5, Huber
@@ -125,16 +128,17 @@ registration::IcpParams objectIcpParams(double unit, const IcpFinish& finish) {
   return p;
 }
 
-registration::ConfidenceParams objectConfidenceParams(double unit) {
+registration::ConfidenceParams objectConfidenceParams(double unit, const IcpFinish& finish) {
   registration::ConfidenceParams c;
   c.inlier_threshold = 0.05 * unit;
   c.min_sigma = 0.001 * unit;
+  c.color_inlier_threshold = finish.color_inlier;
   return c;
 }
 
 std::shared_ptr<registration::IcpMatcher> objectIcpMatcher(double unit, const IcpFinish& finish) {
   return std::make_shared<registration::IcpMatcher>(objectIcpParams(unit, finish),
-                                                    objectConfidenceParams(unit));
+                                                    objectConfidenceParams(unit, finish));
 }
 
 /// A matcher's pose with its confidence scores: ICP's own fitness and inlier ratio, and for the
@@ -168,8 +172,8 @@ registration::IcpParams objectRefineIcpParams(double unit, const IcpFinish& fini
 /// refinement's narrow ICP).
 registration::ObmNetMatcherParams obmnetIcpParams(const NetRun& net, double unit,
                                                   const IcpFinish& finish, double overlap_keep,
-                                                  int refine_hypotheses = 1,
-                                                  int init_headings = 0, bool pre_align = false) {
+                                                  int refine_hypotheses = 1, int init_headings = 0,
+                                                  bool pre_align = false) {
   registration::ObmNetMatcherParams p;
   p.refine_hypotheses = refine_hypotheses;
   p.init_headings = init_headings;
@@ -196,7 +200,7 @@ registration::ObmNetMatcherParams obmnetIcpParams(const NetRun& net, double unit
 std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(
     const registration::ObmNetMatcherParams& p, double unit, const IcpFinish& finish) {
   return std::make_shared<registration::ObmNetIcpMatcher>(p, objectRefineIcpParams(unit, finish),
-                                                          objectConfidenceParams(unit));
+                                                          objectConfidenceParams(unit, finish));
 }
 
 std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(const NetRun& net, double unit,
@@ -213,7 +217,7 @@ std::shared_ptr<registration::ObmNetIcpMatcher> obmnetIcpMatcher(const NetRun& n
 std::shared_ptr<registration::IcpMatcher> objectRefineIcpMatcher(double unit,
                                                                  const IcpFinish& finish) {
   return std::make_shared<registration::IcpMatcher>(objectRefineIcpParams(unit, finish),
-                                                    objectConfidenceParams(unit));
+                                                    objectConfidenceParams(unit, finish));
 }
 
 /// The classical counterpart of the network's yaw hypotheses (`icp-yaw4`): ICP from the identity
@@ -296,8 +300,8 @@ bench::Method obmnetIcpOrIcpMethod(std::shared_ptr<const registration::ScanMatch
                      r.status != registration::MatchStatus::EmptyInput &&
                      r.status != registration::MatchStatus::TooFewPoints;
             };
-            const bool take_b = paired(b) && (!paired(a) ||
-                                              b.num_correspondences > a.num_correspondences);
+            const bool take_b =
+                paired(b) && (!paired(a) || b.num_correspondences > a.num_correspondences);
             return matchResult(take_b ? b : a);
           }};
 }
@@ -313,7 +317,7 @@ std::shared_ptr<registration::ObmmIcpMatcher> obmmIcpMatcher(const std::string& 
   p.threads = threads;
   p.pre_align = false;
   return std::make_shared<registration::ObmmIcpMatcher>(p, objectIcpParams(unit, finish),
-                                                        objectConfidenceParams(unit));
+                                                        objectConfidenceParams(unit, finish));
 }
 
 /// `obmm+<peer>`: the peer (FGR or RANSAC on FPFH) on the points the module predicts in the
@@ -408,9 +412,10 @@ int main(int argc, char** argv) {
   app.add_option("--methods", methods_arg, "comma-separated subset (default: all available)");
   app.add_option("--ablation", ablation,
                  "comma-separated model files: one row per model (OS/BP/NMM variants)");
-  app.add_option("--sequence", sequences,
-                 "kitti protocol: a KITTI odometry folder with poses.txt (repeatable); default: the "
-                 "config's val_sequences with --group val");
+  app.add_option(
+      "--sequence", sequences,
+      "kitti protocol: a KITTI odometry folder with poses.txt (repeatable); default: the "
+      "config's val_sequences with --group val");
   app.add_option("--pair-class", pair_class,
                  "kitti protocol: k1, k5, k10, k20 (pairs (i, i+k)) or loop (revisits of a place "
                  "within the config's loop_max_distance, spread over yaw differences 0-180 deg); "
@@ -447,6 +452,13 @@ int main(int argc, char** argv) {
                  "λ of coloured ICP's grey-level term on pairs whose clouds carry colours (the "
                  "rgbd_frames protocol); 0 = geometric ICP; default 0.1 for rgbd_frames with "
                  "colour images, else 0 (see docs/obm-bench.md)")
+      ->check(CLI::NonNegativeNumber);
+  double color_inlier = -1.0;
+  app.add_option("--color-inlier", color_inlier,
+                 "with coloured ICP: grey residual [0-1] an inlier may have, so that the "
+                 "inlier counts and the network's confidence that choose between starts ask "
+                 "the colours to agree too (0 = geometric inliers; default 0.05 with coloured "
+                 "ICP, see docs/obm-bench.md)")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--overlap-stage", overlap_keep,
                  "obmnet+icp: fraction of the network's points, those with the largest SVD "
@@ -538,10 +550,10 @@ int main(int argc, char** argv) {
       // The model of the data's kind; pairs of unknown origin (--pairs) and noisy protocols get
       // a model trained on noise (the noise-free one fails on any jittered cloud).
       const std::string kind =
-          !pairs_dir.empty()                                             ? "obmnet_objects_resampled"
-          : protocol == "kitti"                                          ? "obmnet_lidar"
+          !pairs_dir.empty()    ? "obmnet_objects_resampled"
+          : protocol == "kitti" ? "obmnet_lidar"
           : protocol == "rgbd_frames" || protocol == "indoor" || protocol == "icl" ? "obmnet_indoor"
-          : protocol == "resampled"                                      ? "obmnet_objects_resampled"
+          : protocol == "resampled" ? "obmnet_objects_resampled"
           : protocol == "jitter" || protocol == "outliers" || protocol == "partial_noise"
               ? "obmnet_objects_noise"
               : "obmnet_objects";
@@ -553,12 +565,12 @@ int main(int argc, char** argv) {
     }
     std::vector<obmnet::RegistrationPair> pairs;
     std::string info;
-    bool shared_samples = false;  // set where pairs are generated by obmnet::makePair
+    bool shared_samples = false;       // set where pairs are generated by obmnet::makePair
     bool independent_objects = false;  // the resampled protocol: each cloud sampled on its own
     // Generated object pairs: the scorer of each pair's object (surface error up to symmetry).
     std::vector<std::unique_ptr<eval::SurfaceErrorScorer>> object_scorers;
     std::vector<const eval::SurfaceErrorScorer*> scorer_of_pair;
-    bool feed_whole = false;      // generated object / fragment pairs: no sub-sampling
+    bool feed_whole = false;  // generated object / fragment pairs: no sub-sampling
     if (!pairs_dir.empty()) {
       pairs = bench::readPairFolder(pairs_dir);
       info = "pairs from " + pairs_dir;
@@ -571,11 +583,11 @@ int main(int argc, char** argv) {
       data.get("dir", dir);
       const auto opts = datasets::RgbdFragmentOptions::load(data.child("rgbd"));
       if (group != "val" && group != "unseen")
-        throw ConfigError("--protocol rgbd_frames: --group must be val or unseen, not '" + group + "'");
+        throw ConfigError("--protocol rgbd_frames: --group must be val or unseen, not '" + group +
+                          "'");
       const auto& seqs = group == "val" ? opts.val_sequences : opts.test_sequences;
       int lo = 5, hi = 30;
-      if (!frame_gaps.empty() &&
-          std::sscanf(frame_gaps.c_str(), "%d:%d", &lo, &hi) != 2)
+      if (!frame_gaps.empty() && std::sscanf(frame_gaps.c_str(), "%d:%d", &lo, &hi) != 2)
         throw ConfigError("--frame-gaps: expected MIN:MAX, got '" + frame_gaps + "'");
       // With their colours: the coloured ICP rows use them, every other method sees geometry.
       pairs = datasets::rgbdFramePairs(dir, opts, seqs, lo, hi, n_pairs, seed, true);
@@ -600,8 +612,9 @@ int main(int argc, char** argv) {
       if (!sequences.empty()) {
         scans.val_sequences = sequences;
       } else if (group != "val") {
-        throw ConfigError("--protocol kitti: give the test sequences with --sequence DIR (the "
-                          "config's val_sequences are used only with --group val)");
+        throw ConfigError(
+            "--protocol kitti: give the test sequences with --sequence DIR (the "
+            "config's val_sequences are used only with --group val)");
       }
       int scan_points = 1024;
       root.child("train").child("pairs").get("num_points", scan_points);
@@ -619,9 +632,8 @@ int main(int argc, char** argv) {
       os << "protocol kitti "
          << (cls.loop ? std::string("loop pairs (revisits)")
                       : "(i, i+" + std::to_string(cls.gap) + ")")
-         << ", " << pairs.size() << " pairs of "
-         << names << ", " << scan_points << " points per sweep after a " << scans.voxel
-         << " m voxel grid, seed " << seed;
+         << ", " << pairs.size() << " pairs of " << names << ", " << scan_points
+         << " points per sweep after a " << scans.voxel << " m voxel grid, seed " << seed;
       info = os.str();
     } else {
       if (config_path.empty()) config_path = apps::findConfigFile("obmnet/train_objects.yaml");
@@ -639,7 +651,7 @@ int main(int argc, char** argv) {
       if (group != "seen" && group != "val" && group != "unseen")
         throw ConfigError("--group must be seen, val or unseen, not '" + group + "'");
       const auto& objects = group == "seen" ? set.train : group == "val" ? set.val : set.test;
-      const auto& references = group == "seen" ? set.train_reference
+      const auto& references = group == "seen"  ? set.train_reference
                                : group == "val" ? set.val_reference
                                                 : set.test_reference;
       if (objects.empty()) throw Error("no objects in the " + group + " group");
@@ -712,14 +724,23 @@ int main(int argc, char** argv) {
       icp_color_weight = protocol == "rgbd_frames" && coloured_pairs ? 0.1 : 0.0;
     if (icp_color_weight > 0.0) {
       if (!coloured_pairs)
-        throw ConfigError("--icp-color-weight: needs pairs whose clouds all carry colours (the "
-                          "rgbd_frames protocol with colour images)");
+        throw ConfigError(
+            "--icp-color-weight: needs pairs whose clouds all carry colours (the "
+            "rgbd_frames protocol with colour images)");
       std::ostringstream os;
       os << ", coloured ICP λ " << icp_color_weight;
       info += os.str();
     }
-    const IcpFinish finish{polish, final_kernel, weak_threshold, icp_normal_neighbors,
-                           icp_color_weight};
+    if (color_inlier < 0.0) color_inlier = icp_color_weight > 0.0 ? 0.05 : 0.0;
+    if (color_inlier > 0.0) {
+      if (!(icp_color_weight > 0.0))
+        throw ConfigError("--color-inlier: needs coloured ICP (--icp-color-weight > 0)");
+      std::ostringstream os;
+      os << ", coloured inliers within " << color_inlier;
+      info += os.str();
+    }
+    const IcpFinish finish{polish,           final_kernel, weak_threshold, icp_normal_neighbors,
+                           icp_color_weight, color_inlier};
     if (overlap_keep < 0.0) overlap_keep = 0.5;
     if (overlap_keep > 1.0) throw ConfigError("--overlap-stage must be in [0, 1]");
     if (!start_near.empty()) {
@@ -782,8 +803,7 @@ int main(int argc, char** argv) {
       // The refinement of `obmnet+icp` started at the ground truth: where it leaves the answer,
       // the ceiling of every refined row (a diagnostic; on request).
       if (!methods_arg.empty()) {
-        bench::Method at_truth =
-            matcherMethod("icp@truth", objectRefineIcpMatcher(unit, finish));
+        bench::Method at_truth = matcherMethod("icp@truth", objectRefineIcpMatcher(unit, finish));
         at_truth.start_at_truth = true;
         methods.push_back(at_truth);
         // The network alone started at the ground truth: how far its own pass moves off the
@@ -798,8 +818,8 @@ int main(int argc, char** argv) {
         NetRun net_t = net;
         net_t.start_turn_deg = start_turns;
         net_t.start_turn_axes = start_turn_axes;
-        methods.push_back(matcherMethod("obmnet+icp-turns",
-                                        obmnetIcpMatcher(net_t, unit, finish, overlap_keep)));
+        methods.push_back(
+            matcherMethod("obmnet+icp-turns", obmnetIcpMatcher(net_t, unit, finish, overlap_keep)));
         methods.push_back(icpTurnsMethod(icp, start_turns, start_turn_axes));
       }
       // Every yaw hypothesis of the network refined by ICP, and its classical counterpart (the
@@ -854,20 +874,19 @@ int main(int argc, char** argv) {
             at_fgr.init_headings_gate = 0.0;
             at_fgr.init_headings_margin = 1.0;
             const auto from_fgr = obmnetIcpMatcher(at_fgr, unit, finish);
-            methods.push_back(globalStartMethod(
-                "obmnet+icp-turns+fgr", obmnetIcpMatcher(net_t, unit, finish, overlap_keep),
-                from_fgr, m));
+            methods.push_back(globalStartMethod("obmnet+icp-turns+fgr",
+                                                obmnetIcpMatcher(net_t, unit, finish, overlap_keep),
+                                                from_fgr, m));
             methods.push_back(globalStartMethod("obmnet+icp@fgr", nullptr, from_fgr, m));
             // The classical chain with the project's refinement after FGR (the ICP after the
             // network, its narrow gate: from the `icp` row's 0.5-unit gate good FGR poses slid
             // off, docs/benchmarks.md, "A global start for frame pairs"): what the network's
             // pass adds to the same start and the same refinement.
             const auto refine = objectRefineIcpMatcher(unit, finish);
-            methods.push_back({"o3d_fgr+obm_icp", [refine, m](const PointCloud& s,
-                                                              const PointCloud& t) {
-                                 return matchResult(
-                                     refine->match(s, t, m.fn(s, t).T_target_source));
-                               }});
+            methods.push_back(
+                {"o3d_fgr+obm_icp", [refine, m](const PointCloud& s, const PointCloud& t) {
+                   return matchResult(refine->match(s, t, m.fn(s, t).T_target_source));
+                 }});
           }
       // The module as a plug-in of the methods users have (the paper's Table 4); listed on
       // request (--methods), as they cost a network pass (two for the feature peers).
@@ -908,14 +927,16 @@ int main(int argc, char** argv) {
     const bool by_surface = surface_error > 0.0 && !scorer_of_pair.empty();
     if (by_surface) {
       bench::scoreSurfaces(pairs, scorer_of_pair, scores);
-      md += "\nUp to the objects' symmetries (surface error: mean distance of the object placed "
-            "by the estimate from the object placed by the truth; docs/metrics.md):\n\n" +
-            bench::surfaceTable(scores, recall, surface_error);
+      md +=
+          "\nUp to the objects' symmetries (surface error: mean distance of the object placed "
+          "by the estimate from the object placed by the truth; docs/metrics.md):\n\n" +
+          bench::surfaceTable(scores, recall, surface_error);
     }
     if (!ratings.empty())
-      md += "\nConfidence scores as detectors of a correct registration (AUROC; 1 = perfect, "
-            "0.5 = chance):\n\n" +
-            bench::confidenceTable(ratings);
+      md +=
+          "\nConfidence scores as detectors of a correct registration (AUROC; 1 = perfect, "
+          "0.5 = chance):\n\n" +
+          bench::confidenceTable(ratings);
     std::cout << md;
     if (!md_out.empty()) writeTextAtomically(md_out, md);
     if (!json_out.empty())

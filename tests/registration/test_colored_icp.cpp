@@ -67,8 +67,7 @@ TEST(ColoredIcp, TheTexturePinsTheInPlaneShiftThatGeometryLeavesFree) {
       makeIsometry(Eigen::AngleAxisd(2.0 * kDegToRad, Eigen::Vector3d::UnitZ()).toRotationMatrix(),
                    Eigen::Vector3d(0.04, -0.03, 0.0));
   const PointCloud target = texturedWall(0.008, 1, wallPose());
-  const PointCloud source =
-      texturedWall(0.012, 2, T_target_source_true.inverse() * wallPose());
+  const PointCloud source = texturedWall(0.012, 2, T_target_source_true.inverse() * wallPose());
 
   registration::IcpParams geometric = wallParams();
   registration::IcpParams colored = geometric;
@@ -104,6 +103,53 @@ TEST(ColoredIcp, TheTexturePinsTheInPlaneShiftThatGeometryLeavesFree) {
   const registration::MatchResult off =
       registration::IcpMatcher(colored).match(grey, target_col, Isometry3d::Identity());
   EXPECT_TRUE(off.T_target_source.isApprox(geo.T_target_source, 1e-9));
+}
+
+TEST(ColoredIcp, ColouredInliersTellASlideAlongTheWallFromTheRightPose) {
+  // A pose slid 6 cm along a textured wall pairs nearly every point within the inlier threshold,
+  // as the right pose does; the grey residuals tell them apart (ConfidenceParams::
+  // color_inlier_threshold), which the inlier counts that choose between ICP starts rely on.
+  const PointCloud target = texturedWall(0.008, 1, wallPose());
+  const PointCloud source = texturedWall(0.012, 2, wallPose());  // T_target_source = identity
+  registration::IcpParams icp = wallParams();
+  icp.color_weight = 0.033;
+  const registration::PreparedTarget prepared(target, icp.targetOptions());
+  ASSERT_TRUE(prepared.hasColorGradients());
+  const std::vector<float> grey = registration::colorIntensities(source, prepared, icp);
+  ASSERT_EQ(grey.size(), source.size());
+  const Isometry3d right = Isometry3d::Identity();
+  const Isometry3d slid = makeIsometry(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.06, 0, 0));
+  registration::ConfidenceParams geometric;
+  geometric.inlier_threshold = 0.01;
+  registration::ConfidenceParams coloured = geometric;
+  coloured.color_inlier_threshold = 0.05;
+  auto inliers = [&](const Isometry3d& T, const registration::ConfidenceParams& c,
+                     const std::vector<float>* intensity) {
+    return double(
+        registration::evaluateAlignment(source.points, nullptr, prepared, T, icp, c, intensity)
+            .num_inliers);
+  };
+  const double geo_right = inliers(right, geometric, &grey);
+  const double geo_slid = inliers(slid, geometric, &grey);
+  const double col_right = inliers(right, coloured, &grey);
+  const double col_slid = inliers(slid, coloured, &grey);
+  std::printf("inliers: geometric %.0f right / %.0f slid, coloured %.0f right / %.0f slid\n",
+              geo_right, geo_slid, col_right, col_slid);
+  EXPECT_GT(geo_slid, 0.9 * geo_right) << "the geometry alone barely sees the slide";
+  EXPECT_GT(col_right, 0.9 * geo_right) << "the right pose's grey residuals are within 0.05";
+  EXPECT_LT(col_slid, 0.5 * col_right) << "the slide lays the wrong texture on the target";
+  // Off (threshold 0), without intensities, or without the photometric term: geometric counts.
+  EXPECT_EQ(inliers(slid, geometric, &grey), geo_slid);
+  EXPECT_EQ(inliers(slid, coloured, nullptr), geo_slid);
+  registration::IcpParams no_colour = icp;
+  no_colour.color_weight = 0.0;
+  EXPECT_EQ(double(registration::evaluateAlignment(source.points, nullptr, prepared, slid,
+                                                   no_colour, coloured, &grey)
+                       .num_inliers),
+            geo_slid);
+  registration::ConfidenceParams bad;
+  bad.color_inlier_threshold = -0.01;
+  EXPECT_THROW(bad.validate(), ContractError);
 }
 
 TEST(ColoredIcp, ParametersAreValidated) {

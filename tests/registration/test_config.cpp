@@ -39,6 +39,7 @@ confidence:
   overlap_ref: 0.4
   conditioning_ref: 0.03
   degeneracy_threshold: 0.002
+  color_inlier_threshold: 0.07
 )");
   const registration::ScanMatcherConfig c = registration::ScanMatcherConfig::load(node);
   EXPECT_EQ(c.type, registration::MatcherKind::Icp);
@@ -66,6 +67,7 @@ confidence:
   EXPECT_EQ(c.confidence.overlap_ref, 0.4);
   EXPECT_EQ(c.confidence.conditioning_ref, 0.03);
   EXPECT_EQ(c.confidence.degeneracy_threshold, 0.002);
+  EXPECT_EQ(c.confidence.color_inlier_threshold, 0.07);
   const auto m = registration::makeScanMatcher(c);
   EXPECT_EQ(m->name(), "icp");
   EXPECT_EQ(m->icpParams().kernel, registration::RobustKernel::Tukey);
@@ -221,6 +223,7 @@ TEST(RegistrationConfig, ShippedIcpConfigHoldsTheDefaults) {
   EXPECT_EQ(c.confidence.overlap_ref, cd.overlap_ref);
   EXPECT_EQ(c.confidence.conditioning_ref, cd.conditioning_ref);
   EXPECT_EQ(c.confidence.degeneracy_threshold, cd.degeneracy_threshold);
+  EXPECT_EQ(c.confidence.color_inlier_threshold, cd.color_inlier_threshold);
 }
 
 #ifdef OBM_TEST_WITHOUT_OBMNET

@@ -6,8 +6,8 @@
 #include <limits>
 
 #include "obm/core/errors.hpp"
-#include "obm/registration/match_result.hpp"
 #include "obm/core/parallel.hpp"
+#include "obm/registration/match_result.hpp"
 #include "unit_free.hpp"
 
 namespace obm::registration {
@@ -19,11 +19,11 @@ constexpr std::size_t kChunk = 1024;
 struct Partial {
   Matrix6d H = Matrix6d::Zero();
   Matrix6d Hc = Matrix6d::Zero();  // the photometric term's (coloured ICP)
-  double weight_sum = 0.0;   // Σ ω m
-  double omega_sum = 0.0;    // Σ ω
-  double weighted_r2 = 0.0;  // Σ ω ‖r‖²
-  double weighted_p2 = 0.0;  // Σ ω ‖p‖²
-  double r2 = 0.0;           // Σ ‖r‖²
+  double weight_sum = 0.0;         // Σ ω m
+  double omega_sum = 0.0;          // Σ ω
+  double weighted_r2 = 0.0;        // Σ ω ‖r‖²
+  double weighted_p2 = 0.0;        // Σ ω ‖p‖²
+  double r2 = 0.0;                 // Σ ‖r‖²
   std::size_t correspondences = 0;
   std::size_t inliers = 0;
 };
@@ -91,6 +91,8 @@ AlignmentStats evaluateAlignment(const std::vector<Vector3f>& source_points,
   const bool plane_metric = icp.metric == IcpMetric::PointToPlane;
   const double gate = icp.max_correspondence_distance;
   const double inlier2 = confidence.inlier_threshold * confidence.inlier_threshold;
+  // Coloured inliers: the grey residual must agree too (ConfidenceParams::color_inlier_threshold).
+  const bool color_inliers = color && confidence.color_inlier_threshold > 0.0;
 
   std::vector<Partial> partials(numChunks(source_points.size(), kChunk));
   parallelChunks(
@@ -105,6 +107,8 @@ AlignmentStats evaluateAlignment(const std::vector<Vector3f>& source_points,
           const Eigen::Vector3d q = tgt[j].cast<double>();
           const double prior = point_weights ? (*point_weights)[i] : 1.0;
           double r2 = 0.0;
+          double rc = 0.0;  // grey residual (coloured pairs)
+          if (color) rc = target.colorResidual(j, pt, (*source_intensity)[i]);
           if (plane_metric && valid[j]) {
             const Eigen::Vector3d n = normals[j].cast<double>();
             const double r = n.dot(pt - q);
@@ -118,9 +122,8 @@ AlignmentStats evaluateAlignment(const std::vector<Vector3f>& source_points,
             if (color) {
               // Coloured ICP's photometric term constrains what the geometry may leave free.
               const Eigen::Vector3d d = target.colorGradients()[j].cast<double>();
-              const double rc = target.colorResidual(j, pt, (*source_intensity)[i]);
-              const double wc = icp.color_weight * prior *
-                                robustWeight(icp.kernel, rc, icp.color_kernel_scale);
+              const double wc =
+                  icp.color_weight * prior * robustWeight(icp.kernel, rc, icp.color_kernel_scale);
               const Eigen::Vector3d ds = R.transpose() * d;
               J << ds, p.cross(ds);
               P.Hc.noalias() += wc * J * J.transpose();
@@ -148,7 +151,9 @@ AlignmentStats evaluateAlignment(const std::vector<Vector3f>& source_points,
           }
           P.r2 += r2;
           ++P.correspondences;
-          if (r2 <= inlier2) ++P.inliers;
+          if (r2 <= inlier2 &&
+              (!color_inliers || std::abs(rc) <= confidence.color_inlier_threshold))
+            ++P.inliers;
         }
       });
   Partial T;
@@ -210,8 +215,8 @@ double weakestTranslationSigma(const Matrix6d& information, Eigen::Vector3d* dir
   if (!(top > 0.0) || full.eigenvalues().minCoeff() <= top * 1e-14) return kInf;
   const Matrix6d cov = full.eigenvectors() * full.eigenvalues().cwiseInverse().asDiagonal() *
                        full.eigenvectors().transpose();
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> tt(0.5 * (cov.topLeftCorner<3, 3>() +
-                                                           cov.topLeftCorner<3, 3>().transpose()));
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> tt(
+      0.5 * (cov.topLeftCorner<3, 3>() + cov.topLeftCorner<3, 3>().transpose()));
   if (tt.info() != Eigen::Success) return kInf;
   if (direction) *direction = tt.eigenvectors().col(2);
   return std::sqrt(std::max(0.0, tt.eigenvalues()(2)));

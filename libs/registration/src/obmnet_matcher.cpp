@@ -53,6 +53,8 @@ struct NetworkStage {
   double alpha = 1.0, overlap = 0.0;
   std::vector<Vector3f> sampled;  ///< the network's source points, source frame
   std::vector<double> prior;      ///< w_i·(1 + α·m_i): the network's SVD weights (docs/model.md)
+  /// The sampled points' grey levels (colorIntensity); empty when the source has no colours.
+  std::vector<float> sampled_grey;
   /// The same for every yaw hypothesis, best first by the registrar's ranking (the fields above are
   /// the first's).
   struct Hypothesis {
@@ -118,6 +120,9 @@ NetworkStage runNetwork(const obmnet::ObmNetRegistrar& reg, const ObmNetMatcherP
   s.sampled.reserve(n);
   // Indices refer to the cloud given to align(), which has the source's point order.
   for (std::size_t i = 0; i < n; ++i) s.sampled.push_back(source.points[r.source_indices[i]]);
+  if (source.hasColors())
+    for (std::size_t i = 0; i < n; ++i)
+      s.sampled_grey.push_back(colorIntensity(source.colors[r.source_indices[i]]));
   for (const auto& h : r.hypotheses) {
     NetworkStage::Hypothesis y;
     y.T_target_source = p.pre_align ? h.T_target_source * T_init : h.T_target_source;
@@ -134,18 +139,28 @@ NetworkStage runNetwork(const obmnet::ObmNetRegistrar& reg, const ObmNetMatcherP
 }
 
 /// MatchResult::network_confidence: the share of the network's SVD weight on sampled source
-/// points that have a target point within `inlier_threshold` at `T_target_source`.
+/// points that have a target point within the inlier threshold at `T_target_source` (and, on
+/// coloured pairs with ConfidenceParams::color_inlier_threshold, whose grey residual there is
+/// within that: evaluateAlignment's inliers, on the network's points).
 double biasWeightedConfidence(const NetworkStage& net, const PreparedTarget& target,
-                              const Isometry3d& T_target_source, double inlier_threshold) {
+                              const Isometry3d& T_target_source, const IcpParams& icp,
+                              const ConfidenceParams& confidence) {
   const Eigen::Matrix3f R = T_target_source.linear().cast<float>();
   const Eigen::Vector3f t = T_target_source.translation().cast<float>();
+  const bool color = confidence.color_inlier_threshold > 0.0 && icp.color_weight > 0.0 &&
+                     net.sampled_grey.size() == net.sampled.size() && target.hasColorGradients();
   double num = 0.0, den = 0.0;
   std::size_t idx = 0;
   float d2 = 0.0f;
   for (std::size_t i = 0; i < net.sampled.size(); ++i) {
     const double w = net.prior[i];
     den += w;
-    if (target.nearest(R * net.sampled[i] + t, inlier_threshold, idx, d2)) num += w;
+    const Eigen::Vector3f x = R * net.sampled[i] + t;
+    if (!target.nearest(x, confidence.inlier_threshold, idx, d2)) continue;
+    if (color && std::abs(target.colorResidual(idx, x.cast<double>(), net.sampled_grey[i])) >
+                     confidence.color_inlier_threshold)
+      continue;
+    num += w;
   }
   return den > 0.0 ? num / den : 0.0;
 }
@@ -169,7 +184,7 @@ MatchResult withNetworkConfidence(MatchResult result, const NetworkStage& net,
       evaluateAlignment(net.sampled, &net.prior, target, result.T_target_source, icp, confidence);
   applyConfidence(result, all, info, false, icp, confidence);
   result.network_confidence =
-      biasWeightedConfidence(net, target, result.T_target_source, confidence.inlier_threshold);
+      biasWeightedConfidence(net, target, result.T_target_source, icp, confidence);
   return result;
 }
 
@@ -312,7 +327,9 @@ Refinement refineFrom(const obmnet::ObmNetRegistrar& registrar, const ObmNetMatc
   // gate: a pose slid along a street pairs nearly every point within a metre-wide gate.
   auto inliers = [&](const IcpOutcome& o) -> std::size_t {
     if (o.status == MatchStatus::TooFewCorrespondences) return 0;
-    return evaluateAlignment(source.points, nullptr, target, o.T_target_source, icp_, confidence_)
+    // Coloured inliers where the pair has colours (ConfidenceParams::color_inlier_threshold).
+    return evaluateAlignment(source.points, nullptr, target, o.T_target_source, icp_, confidence_,
+                             source_grey)
         .num_inliers;
   };
   std::size_t icp_inliers = 0;
@@ -349,9 +366,9 @@ Refinement refineFrom(const obmnet::ObmNetRegistrar& registrar, const ObmNetMatc
                          .toRotationMatrix(),
                      Eigen::Vector3d::Zero());
     // Against the network's best, not against an earlier heading: the margin is the network's.
-    if (compete(runIcp(source.points, target, T_target_source_init * turn, wide, nullptr,
-                       source_grey),
-                heading_won ? 1.0 : params.init_headings_margin))
+    if (compete(
+            runIcp(source.points, target, T_target_source_init * turn, wide, nullptr, source_grey),
+            heading_won ? 1.0 : params.init_headings_margin))
       heading_won = true;
   }
   if (heading_won)
@@ -377,14 +394,13 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
     // arrived from one that did not better than ICP's counts (docs/registration.md).
     auto score = [&](const Refinement& r) {
       if (!r.net.ok || r.result.status == MatchStatus::TooFewCorrespondences) return -1.0;
-      return biasWeightedConfidence(r.net, target, r.result.T_target_source,
-                                    confidence_.inlier_threshold);
+      return biasWeightedConfidence(r.net, target, r.result.T_target_source, icp_, confidence_);
     };
     double best_score = score(best);
     for (const Isometry3d& turn : startTurns(p.start_turn_deg, p.start_turn_axes)) {
-      Refinement r = refineFrom(impl_->registrar, p, icp_, confidence_,
-                                source.transformed(turn, source.frame_id), target,
-                                T_target_source_init);
+      Refinement r =
+          refineFrom(impl_->registrar, p, icp_, confidence_,
+                     source.transformed(turn, source.frame_id), target, T_target_source_init);
       const double s = score(r);
       if (s <= best_score) continue;
       // Back to the source's own frame: the pose, and the network's points (for the
@@ -397,8 +413,7 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
     }
   }
   if (!best.net.ok) return best.result;
-  return withNetworkConfidence(std::move(best.result), best.net, source, target, icp_,
-                               confidence_);
+  return withNetworkConfidence(std::move(best.result), best.net, source, target, icp_, confidence_);
 }
 
 struct ObmmIcpMatcher::Impl {

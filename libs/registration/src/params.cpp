@@ -111,12 +111,14 @@ void ConfidenceParams::validate() const {
   check(overlap_ref > 0.0 && overlap_ref <= 1.0, "overlap_ref must be in (0, 1]");
   check(conditioning_ref > 0.0, "conditioning_ref must be > 0");
   check(degeneracy_threshold >= 0.0, "degeneracy_threshold must be >= 0");
+  check(color_inlier_threshold >= 0.0, "color_inlier_threshold must be >= 0 (0 = off)");
 }
 
 ConfidenceParams ConfidenceParams::load(const ConfigNode& node) {
   ConfidenceParams p;
   node.checkKeys({"inlier_threshold", "min_sigma", "information_scale", "inlier_ratio_ref",
-                  "overlap_ref", "conditioning_ref", "degeneracy_threshold"});
+                  "overlap_ref", "conditioning_ref", "degeneracy_threshold",
+                  "color_inlier_threshold"});
   node.get("inlier_threshold", p.inlier_threshold);
   node.get("min_sigma", p.min_sigma);
   node.get("information_scale", p.information_scale);
@@ -124,6 +126,7 @@ ConfidenceParams ConfidenceParams::load(const ConfigNode& node) {
   node.get("overlap_ref", p.overlap_ref);
   node.get("conditioning_ref", p.conditioning_ref);
   node.get("degeneracy_threshold", p.degeneracy_threshold);
+  node.get("color_inlier_threshold", p.color_inlier_threshold);
   try {
     p.validate();
   } catch (const ContractError& e) {

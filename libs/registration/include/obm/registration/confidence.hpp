@@ -17,13 +17,15 @@ namespace obm::registration {
 struct AlignmentStats {
   std::size_t num_points = 0;           ///< source points evaluated
   std::size_t num_correspondences = 0;  ///< points with a target partner within the fine gate
-  std::size_t num_inliers = 0;          ///< correspondences with |r| <= inlier_threshold
-  double overlap = 0.0;                 ///< num_correspondences / num_points
-  double inlier_ratio = 0.0;            ///< num_inliers / num_points
-  double rmse = 0.0;         ///< [m] RMS of the unweighted residual norms of the correspondences
-  double weight_sum = 0.0;   ///< Σ ω_i m_i (m_i = residual dimension: 1 plane, 3 point)
-  double sigma2 = 0.0;       ///< [m²] Σ ω_i ‖r_i‖² / (Σ ω_i m_i − 6), before the floor
-  double sigma2_used = 0.0;  ///< [m²] max(sigma2, min_sigma²)
+  /// Correspondences with |r| <= inlier_threshold (and, with a source_intensity and
+  /// ConfidenceParams::color_inlier_threshold, a grey residual within that).
+  std::size_t num_inliers = 0;
+  double overlap = 0.0;       ///< num_correspondences / num_points
+  double inlier_ratio = 0.0;  ///< num_inliers / num_points
+  double rmse = 0.0;          ///< [m] RMS of the unweighted residual norms of the correspondences
+  double weight_sum = 0.0;    ///< Σ ω_i m_i (m_i = residual dimension: 1 plane, 3 point)
+  double sigma2 = 0.0;        ///< [m²] Σ ω_i ‖r_i‖² / (Σ ω_i m_i − 6), before the floor
+  double sigma2_used = 0.0;   ///< [m²] max(sigma2, min_sigma²)
   /// H = Σ ω_i J_iᵀ J_i, right (source-frame) perturbation, [translation; rotation].
   Matrix6d hessian = Matrix6d::Zero();
   Matrix6d information = Matrix6d::Zero();  ///< information_scale · H / σ²_used
@@ -39,7 +41,8 @@ struct AlignmentStats {
 /// robust_weight(r_i). Deterministic and independent of icp.threads. With `source_intensity`
 /// (colorIntensity() per point), IcpParams::color_weight > 0 and target colour gradients, the
 /// conditioning is taken on the Hessian of the coloured-ICP cost (geometric + photometric), so a
-/// textured plane is not reported degenerate; the Hessian and information stay geometric.
+/// textured plane is not reported degenerate, and ConfidenceParams::color_inlier_threshold (if
+/// set) asks the inliers to agree in grey level too; the Hessian and information stay geometric.
 AlignmentStats evaluateAlignment(const std::vector<Vector3f>& source_points,
                                  const std::vector<double>* point_weights,
                                  const PreparedTarget& target, const Isometry3d& T_target_source,

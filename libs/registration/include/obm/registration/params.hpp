@@ -87,9 +87,9 @@ struct IcpParams {
   /// frame), w = (σ(1 m)/σ(z))², so far points, whose depth is several times noisier, pull less.
   /// For sources in an optical frame only (z forward); off for LiDAR.
   bool depth_noise_weights = false;
-  double depth_noise_a = 0.0012;   ///< [m] a (Kinect v1)
-  double depth_noise_b = 0.0019;   ///< [1/m] b
-  double depth_noise_z0 = 0.4;     ///< [m] z₀
+  double depth_noise_a = 0.0012;  ///< [m] a (Kinect v1)
+  double depth_noise_b = 0.0019;  ///< [1/m] b
+  double depth_noise_z0 = 0.4;    ///< [m] z₀
 
   // --- solver --------------------------------------------------------------------------------
   IcpSolver solver = IcpSolver::LevenbergMarquardt;
@@ -113,6 +113,13 @@ struct IcpParams {
 struct ConfidenceParams {
   /// [m] a correspondence whose residual is within this counts as an inlier (inlier_ratio).
   double inlier_threshold = 0.2;
+  /// [grey level, 0-1] on coloured pairs, an inlier also needs its coloured-ICP grey residual
+  /// |I(q) + d_qᵀ(T·p − q) − I(p)| within this (0 = geometric inliers only). Used only where the
+  /// photometric term is (IcpParams::color_weight > 0, both clouds coloured). A pose slid along a
+  /// wall or floor pairs as many points within a few centimetres as the right one, sometimes more,
+  /// but the texture it lays on the target does not match (docs/registration.md, "Coloured
+  /// inliers").
+  double color_inlier_threshold = 0.0;
   /// [m] floor of the residual standard deviation σ, so that a noise-free (or over-fitted)
   /// match does not produce an unbounded information matrix.
   double min_sigma = 0.005;
