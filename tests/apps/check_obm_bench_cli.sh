@@ -135,6 +135,11 @@ if "$tool" --pairs "$work/pairs" --icp-color-weight 0.3 -q > /dev/null 2> "$work
 fi
 grep -q 'icp-color-weight' "$work/cw.err" \
   || fail "--icp-color-weight not named: $(cat "$work/cw.err")"
+# Coloured inliers need coloured ICP: without it the option is refused by name.
+if "$tool" --pairs "$work/pairs" --color-inlier 0.05 -q > /dev/null 2> "$work/ci.err"; then
+  fail "--color-inlier accepted without coloured ICP"
+fi
+grep -q 'color-inlier' "$work/ci.err" || fail "--color-inlier not named: $(cat "$work/ci.err")"
 # The last narrow-kernel stage of the project's ICP: a negative scale is refused.
 if "$tool" --pairs "$work/pairs" --icp-final-kernel -0.1 -q > /dev/null 2> "$work/fk.err"; then
   fail "--icp-final-kernel -0.1 accepted"
