@@ -67,7 +67,8 @@ TEST(ColoredIcp, TheTexturePinsTheInPlaneShiftThatGeometryLeavesFree) {
       makeIsometry(Eigen::AngleAxisd(2.0 * kDegToRad, Eigen::Vector3d::UnitZ()).toRotationMatrix(),
                    Eigen::Vector3d(0.04, -0.03, 0.0));
   const PointCloud target = texturedWall(0.008, 1, wallPose());
-  const PointCloud source = texturedWall(0.012, 2, T_target_source_true.inverse() * wallPose());
+  const PointCloud source =
+      texturedWall(0.012, 2, T_target_source_true.inverse() * wallPose());
 
   registration::IcpParams geometric = wallParams();
   registration::IcpParams colored = geometric;

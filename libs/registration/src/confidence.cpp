@@ -6,8 +6,8 @@
 #include <limits>
 
 #include "obm/core/errors.hpp"
-#include "obm/core/parallel.hpp"
 #include "obm/registration/match_result.hpp"
+#include "obm/core/parallel.hpp"
 #include "unit_free.hpp"
 
 namespace obm::registration {
@@ -19,11 +19,11 @@ constexpr std::size_t kChunk = 1024;
 struct Partial {
   Matrix6d H = Matrix6d::Zero();
   Matrix6d Hc = Matrix6d::Zero();  // the photometric term's (coloured ICP)
-  double weight_sum = 0.0;         // Σ ω m
-  double omega_sum = 0.0;          // Σ ω
-  double weighted_r2 = 0.0;        // Σ ω ‖r‖²
-  double weighted_p2 = 0.0;        // Σ ω ‖p‖²
-  double r2 = 0.0;                 // Σ ‖r‖²
+  double weight_sum = 0.0;   // Σ ω m
+  double omega_sum = 0.0;    // Σ ω
+  double weighted_r2 = 0.0;  // Σ ω ‖r‖²
+  double weighted_p2 = 0.0;  // Σ ω ‖p‖²
+  double r2 = 0.0;           // Σ ‖r‖²
   std::size_t correspondences = 0;
   std::size_t inliers = 0;
 };
@@ -122,8 +122,8 @@ AlignmentStats evaluateAlignment(const std::vector<Vector3f>& source_points,
             if (color) {
               // Coloured ICP's photometric term constrains what the geometry may leave free.
               const Eigen::Vector3d d = target.colorGradients()[j].cast<double>();
-              const double wc =
-                  icp.color_weight * prior * robustWeight(icp.kernel, rc, icp.color_kernel_scale);
+              const double wc = icp.color_weight * prior *
+                                robustWeight(icp.kernel, rc, icp.color_kernel_scale);
               const Eigen::Vector3d ds = R.transpose() * d;
               J << ds, p.cross(ds);
               P.Hc.noalias() += wc * J * J.transpose();
@@ -215,8 +215,8 @@ double weakestTranslationSigma(const Matrix6d& information, Eigen::Vector3d* dir
   if (!(top > 0.0) || full.eigenvalues().minCoeff() <= top * 1e-14) return kInf;
   const Matrix6d cov = full.eigenvectors() * full.eigenvalues().cwiseInverse().asDiagonal() *
                        full.eigenvectors().transpose();
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> tt(
-      0.5 * (cov.topLeftCorner<3, 3>() + cov.topLeftCorner<3, 3>().transpose()));
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> tt(0.5 * (cov.topLeftCorner<3, 3>() +
+                                                           cov.topLeftCorner<3, 3>().transpose()));
   if (tt.info() != Eigen::Success) return kInf;
   if (direction) *direction = tt.eigenvectors().col(2);
   return std::sqrt(std::max(0.0, tt.eigenvalues()(2)));

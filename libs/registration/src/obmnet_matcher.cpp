@@ -366,9 +366,9 @@ Refinement refineFrom(const obmnet::ObmNetRegistrar& registrar, const ObmNetMatc
                          .toRotationMatrix(),
                      Eigen::Vector3d::Zero());
     // Against the network's best, not against an earlier heading: the margin is the network's.
-    if (compete(
-            runIcp(source.points, target, T_target_source_init * turn, wide, nullptr, source_grey),
-            heading_won ? 1.0 : params.init_headings_margin))
+    if (compete(runIcp(source.points, target, T_target_source_init * turn, wide, nullptr,
+                       source_grey),
+                heading_won ? 1.0 : params.init_headings_margin))
       heading_won = true;
   }
   if (heading_won)
@@ -398,9 +398,9 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
     };
     double best_score = score(best);
     for (const Isometry3d& turn : startTurns(p.start_turn_deg, p.start_turn_axes)) {
-      Refinement r =
-          refineFrom(impl_->registrar, p, icp_, confidence_,
-                     source.transformed(turn, source.frame_id), target, T_target_source_init);
+      Refinement r = refineFrom(impl_->registrar, p, icp_, confidence_,
+                                source.transformed(turn, source.frame_id), target,
+                                T_target_source_init);
       const double s = score(r);
       if (s <= best_score) continue;
       // Back to the source's own frame: the pose, and the network's points (for the
@@ -413,7 +413,8 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
     }
   }
   if (!best.net.ok) return best.result;
-  return withNetworkConfidence(std::move(best.result), best.net, source, target, icp_, confidence_);
+  return withNetworkConfidence(std::move(best.result), best.net, source, target, icp_,
+                               confidence_);
 }
 
 struct ObmmIcpMatcher::Impl {

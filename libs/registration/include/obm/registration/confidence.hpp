@@ -20,12 +20,12 @@ struct AlignmentStats {
   /// Correspondences with |r| <= inlier_threshold (and, with a source_intensity and
   /// ConfidenceParams::color_inlier_threshold, a grey residual within that).
   std::size_t num_inliers = 0;
-  double overlap = 0.0;       ///< num_correspondences / num_points
-  double inlier_ratio = 0.0;  ///< num_inliers / num_points
-  double rmse = 0.0;          ///< [m] RMS of the unweighted residual norms of the correspondences
-  double weight_sum = 0.0;    ///< Σ ω_i m_i (m_i = residual dimension: 1 plane, 3 point)
-  double sigma2 = 0.0;        ///< [m²] Σ ω_i ‖r_i‖² / (Σ ω_i m_i − 6), before the floor
-  double sigma2_used = 0.0;   ///< [m²] max(sigma2, min_sigma²)
+  double overlap = 0.0;                 ///< num_correspondences / num_points
+  double inlier_ratio = 0.0;            ///< num_inliers / num_points
+  double rmse = 0.0;         ///< [m] RMS of the unweighted residual norms of the correspondences
+  double weight_sum = 0.0;   ///< Σ ω_i m_i (m_i = residual dimension: 1 plane, 3 point)
+  double sigma2 = 0.0;       ///< [m²] Σ ω_i ‖r_i‖² / (Σ ω_i m_i − 6), before the floor
+  double sigma2_used = 0.0;  ///< [m²] max(sigma2, min_sigma²)
   /// H = Σ ω_i J_iᵀ J_i, right (source-frame) perturbation, [translation; rotation].
   Matrix6d hessian = Matrix6d::Zero();
   Matrix6d information = Matrix6d::Zero();  ///< information_scale · H / σ²_used

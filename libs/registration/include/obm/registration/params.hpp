@@ -87,9 +87,9 @@ struct IcpParams {
   /// frame), w = (σ(1 m)/σ(z))², so far points, whose depth is several times noisier, pull less.
   /// For sources in an optical frame only (z forward); off for LiDAR.
   bool depth_noise_weights = false;
-  double depth_noise_a = 0.0012;  ///< [m] a (Kinect v1)
-  double depth_noise_b = 0.0019;  ///< [1/m] b
-  double depth_noise_z0 = 0.4;    ///< [m] z₀
+  double depth_noise_a = 0.0012;   ///< [m] a (Kinect v1)
+  double depth_noise_b = 0.0019;   ///< [1/m] b
+  double depth_noise_z0 = 0.4;     ///< [m] z₀
 
   // --- solver --------------------------------------------------------------------------------
   IcpSolver solver = IcpSolver::LevenbergMarquardt;
