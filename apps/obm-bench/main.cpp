@@ -740,8 +740,13 @@ int main(int argc, char** argv) {
       os << ", coloured inliers within " << color_inlier;
       info += os.str();
     }
-    const IcpFinish finish{polish,           final_kernel,     weak_threshold,
-                           icp_normal_neighbors, icp_color_weight, color_inlier};
+    IcpFinish finish;
+    finish.polish = polish;
+    finish.final_kernel = final_kernel;
+    finish.weak = weak_threshold;
+    finish.normal_neighbors = icp_normal_neighbors;
+    finish.color_weight = icp_color_weight;
+    finish.color_inlier = color_inlier;
     if (overlap_keep < 0.0) overlap_keep = 0.5;
     if (overlap_keep > 1.0) throw ConfigError("--overlap-stage must be in [0, 1]");
     if (!start_near.empty()) {

@@ -92,7 +92,8 @@ AlignmentStats evaluateAlignment(const std::vector<Vector3f>& source_points,
   const double gate = icp.max_correspondence_distance;
   const double inlier2 = confidence.inlier_threshold * confidence.inlier_threshold;
   // Coloured inliers: the grey residual must agree too (ConfidenceParams::color_inlier_threshold).
-  const bool color_inliers = color && confidence.color_inlier_threshold > 0.0;
+  const bool color_inliers =
+      colorInliersApply(icp, confidence, target, source_intensity != nullptr);
 
   std::vector<Partial> partials(numChunks(source_points.size(), kChunk));
   parallelChunks(
@@ -189,6 +190,12 @@ AlignmentStats evaluateAlignment(const std::vector<Vector3f>& source_points,
   Eigen::SelfAdjointEigenSolver<Matrix6d> es(Hn, Eigen::EigenvaluesOnly);
   s.conditioning = std::max(0.0, es.eigenvalues()(0));
   return s;
+}
+
+bool colorInliersApply(const IcpParams& icp, const ConfidenceParams& confidence,
+                       const PreparedTarget& target, bool source_has_intensity) {
+  return confidence.color_inlier_threshold > 0.0 && icp.color_weight > 0.0 &&
+         target.hasColorGradients() && source_has_intensity;
 }
 
 double matchQuality(double inlier_ratio, double rmse, double overlap, double conditioning,

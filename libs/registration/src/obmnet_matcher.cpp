@@ -147,8 +147,9 @@ double biasWeightedConfidence(const NetworkStage& net, const PreparedTarget& tar
                               const ConfidenceParams& confidence) {
   const Eigen::Matrix3f R = T_target_source.linear().cast<float>();
   const Eigen::Vector3f t = T_target_source.translation().cast<float>();
-  const bool color = confidence.color_inlier_threshold > 0.0 && icp.color_weight > 0.0 &&
-                     net.sampled_grey.size() == net.sampled.size() && target.hasColorGradients();
+  const bool color = colorInliersApply(icp, confidence, target,
+                                       !net.sampled.empty() &&
+                                           net.sampled_grey.size() == net.sampled.size());
   double num = 0.0, den = 0.0;
   std::size_t idx = 0;
   float d2 = 0.0f;

@@ -49,6 +49,13 @@ AlignmentStats evaluateAlignment(const std::vector<Vector3f>& source_points,
                                  const IcpParams& icp, const ConfidenceParams& confidence,
                                  const std::vector<float>* source_intensity = nullptr);
 
+/// Whether the coloured-inlier rule applies (ConfidenceParams::color_inlier_threshold): a
+/// threshold set, coloured ICP's photometric term on (IcpParams::color_weight > 0), the target
+/// prepared with colour gradients and grey levels for the source points. The one test of
+/// evaluateAlignment's inliers and of the OBMNet matchers' bias-weighted confidence.
+bool colorInliersApply(const IcpParams& icp, const ConfidenceParams& confidence,
+                       const PreparedTarget& target, bool source_has_intensity);
+
 /// Scalar quality in [0, 1]:
 ///   q = min(1, inlier_ratio/ρ_ref) · max(0, 1 − rmse/d_max) · min(1, overlap/o_ref)
 ///       · min(1, conditioning/λ_ref)
