@@ -23,6 +23,7 @@
 #include "obm/datasets/object_source.hpp"
 #include "obm/datasets/scan_source.hpp"
 #include "obm/obmnet/registrar.hpp"
+#include "obm/registration/correlative_search.hpp"
 #include "obm/registration/icp.hpp"
 #include "obm/registration/obmnet_matcher.hpp"
 
@@ -287,6 +288,30 @@ bench::Method globalStartMethod(const std::string& name,
           }};
 }
 
+/// The correlative search's poses (registration::correlativeSearch), best first.
+std::vector<Isometry3d> searchPoses(const PointCloud& s, const PointCloud& t,
+                                    const registration::CorrelativeSearchParams& p) {
+  std::vector<Isometry3d> out;
+  for (const auto& h : registration::correlativeSearch(s, t, p)) out.push_back(h.T_target_source);
+  return out;
+}
+
+/// The classical chain on the same starts (`search+icp`): the refinement of `obmnet+icp` from
+/// each of the search's poses, the result with the largest inlier ratio kept (ICP's own score).
+bench::Method searchIcpMethod(std::shared_ptr<const registration::ScanMatcher> refine,
+                              const registration::CorrelativeSearchParams& p) {
+  return {"search+icp", [refine, p](const PointCloud& s, const PointCloud& t) {
+            std::optional<registration::MatchResult> best;
+            for (const Isometry3d& T0 : searchPoses(s, t, p)) {
+              registration::MatchResult r = refine->match(s, t, T0);
+              if (r.status == registration::MatchStatus::TooFewCorrespondences) continue;
+              if (!best || r.inlier_ratio > best->inlier_ratio) best = std::move(r);
+            }
+            if (!best) best = refine->match(s, t, Isometry3d::Identity());
+            return matchResult(*best);
+          }};
+}
+
 /// Both starts a user without a prior has: the network's pose (then the refinement, as
 /// `obmnet+icp`) and the identity (the `icp` row); the result that pairs more source points within
 /// the final gate wins. Neither start sees the ground truth; it costs both rows' time.
@@ -539,6 +564,30 @@ int main(int argc, char** argv) {
                  "source moved by the ground truth times a random turn of up to DEG degrees and "
                  "shift of up to M (the pairs' units), drawn from --seed: what each method does "
                  "from a right start (the identity row is then that start)");
+  std::string search_axis, search_range;
+  double search_cell = 0.0;
+  int search_candidates = 4;
+  int search_shifts = 1;
+  app.add_option("--search-axis", search_axis,
+                 "the turn axis of the search rows (search, search+icp, obmnet+icp+search, "
+                 "obmnet+icp-turns+fgr+search) in the source frame: x, y or z (default: y for "
+                 "rgbd_frames, a camera's vertical; z otherwise)");
+  app.add_option("--search-range", search_range,
+                 "DEG,M[,AXIAL]: the search covers headings within ±DEG about --search-axis and "
+                 "translations within ±M along each axis, ±AXIAL along the turn axis itself "
+                 "(default: 60,1 for rgbd_frames, 180,20,1 for kitti, else 45,0.5 times --unit)");
+  app.add_option("--search-cell", search_cell,
+                 "the search's grid cell and translation step, in the pairs' units (default: 1 m "
+                 "for kitti, else the translation range / 10)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--search-shifts", search_shifts,
+                 "translations the search keeps per heading before ranking all its poses")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--search-candidates", search_candidates,
+                 "poses the search hands on to the refinement, best first")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   app.add_flag("-q,--quiet", quiet, "no progress bars");
   apps::addLogLevelOption(app, log_level, "warn");
   CLI11_PARSE(app, argc, argv);
@@ -749,6 +798,34 @@ int main(int argc, char** argv) {
     finish.color_inlier = color_inlier;
     if (overlap_keep < 0.0) overlap_keep = 0.5;
     if (overlap_keep > 1.0) throw ConfigError("--overlap-stage must be in [0, 1]");
+    // The correlative search of the search rows (registration::correlativeSearch).
+    registration::CorrelativeSearchParams search;
+    search.axis = !search_axis.empty() ? search_axis : protocol == "rgbd_frames" ? "y" : "z";
+    search.heading_range_deg = protocol == "rgbd_frames" ? 60.0 : protocol == "kitti" ? 180.0 : 45.0;
+    search.translation_range = protocol == "rgbd_frames" ? 1.0 : protocol == "kitti" ? 20.0 : 0.5 * unit;
+    // A LiDAR's sweeps differ little in height (a road's slope over tens of metres).
+    if (protocol == "kitti") search.axial_range = 1.0;
+    if (!search_range.empty()) {
+      char tail = 0;
+      double axial = -1.0;
+      const int got = std::sscanf(search_range.c_str(), "%lf,%lf,%lf%c", &search.heading_range_deg,
+                                  &search.translation_range, &axial, &tail);
+      if (got != 2 && got != 3)
+        throw ConfigError("--search-range: expected DEG,M or DEG,M,AXIAL, got '" + search_range +
+                          "'");
+      search.axial_range = axial;
+    }
+    search.cell = search_cell > 0.0 ? search_cell
+                  : protocol == "kitti" ? 1.0
+                                        : search.translation_range / 10.0;
+    search.candidates = search_candidates;
+    search.shifts_per_heading = search_shifts;
+    search.seed = seed;
+    try {
+      search.validate();
+    } catch (const ConfigError& e) {
+      throw ConfigError(std::string("--search-axis / --search-range / --search-cell: ") + e.what());
+    }
     if (!start_near.empty()) {
       double deg = -1.0, m = -1.0;
       char tail = 0;
@@ -861,6 +938,23 @@ int main(int argc, char** argv) {
               row + "+icp-all+yaw4", obmnetIcpMatcher(net_r, unit, finish, overlap_keep, 0, 4)));
         }
       }
+      // The correlative search over heading and translation (a classical global start, on
+      // request): its best pose alone, the refinement from each of its poses, and the matcher
+      // with the search's poses as more starts (ObmNetMatcherParams::search_candidates).
+      if (!methods_arg.empty()) {
+        methods.push_back({"search", [search](const PointCloud& s, const PointCloud& t) {
+                             const auto poses = searchPoses(s, t, search);
+                             return bench::MethodResult(poses.empty() ? Isometry3d::Identity()
+                                                                      : poses.front());
+                           }});
+        methods.push_back(searchIcpMethod(objectRefineIcpMatcher(unit, finish), search));
+        registration::ObmNetMatcherParams with_search =
+            obmnetIcpParams(net, unit, finish, overlap_keep);
+        with_search.search = search;
+        with_search.search_candidates = search.candidates;
+        methods.push_back(
+            matcherMethod("obmnet+icp+search", obmnetIcpMatcher(with_search, unit, finish)));
+      }
       bench::Open3dParams o3d_params = scaledOpen3dParams(unit);
       o3d_params.colored = coloured_pairs;
       auto o3d = bench::open3dMethods(o3d_params);
@@ -885,6 +979,17 @@ int main(int argc, char** argv) {
                 "obmnet+icp-turns+fgr", obmnetIcpMatcher(net_t, unit, finish, overlap_keep),
                 from_fgr, m));
             methods.push_back(globalStartMethod("obmnet+icp@fgr", nullptr, from_fgr, m));
+            // The correlative search's poses as more starts of the matcher, beside its turns
+            // and FGR's pose (on request).
+            if (!methods_arg.empty()) {
+              registration::ObmNetMatcherParams turns_search =
+                  obmnetIcpParams(net_t, unit, finish, overlap_keep);
+              turns_search.search = search;
+              turns_search.search_candidates = search.candidates;
+              methods.push_back(globalStartMethod("obmnet+icp-turns+fgr+search",
+                                                  obmnetIcpMatcher(turns_search, unit, finish),
+                                                  from_fgr, m));
+            }
             // The classical chain with the project's refinement after FGR (the ICP after the
             // network, its narrow gate: from the `icp` row's 0.5-unit gate good FGR poses slid
             // off, docs/benchmarks.md, "A global start for frame pairs"): what the network's

@@ -136,6 +136,11 @@ TEST(RegistrationConfig, ErrorsNameFileAndKey) {
                     "obmnet.start_turn_axes");
   expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, start_turn_axes: xx}",
                     "obmnet.start_turn_axes");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, search_candidates: -1}",
+                    "obmnet.search_candidates");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, search: {axis: w}}",
+                    "obmnet.search");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, search: {cells: 1}}", "cells");
   expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, ransac_candidates: 5}",
                     "obmnet.ransac_candidates");
   expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, ransac_inlier_spacing: 0}",
@@ -158,7 +163,16 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
       "overlap_stage_gate_factor: 3, refine_hypotheses: 0, init_headings: 8, "
       "init_headings_gate: 5, init_headings_margin: 1.2, iterations: 4, ransac_iterations: 3000, "
       "ransac_candidates: 2, ransac_inlier_spacing: 1.5, ransac_max_turn_deg: 30, "
-      "select_by_consensus: false, spatial_sigma: 0.05, start_turn_deg: 25, start_turn_axes: zx}"));
+      "select_by_consensus: false, spatial_sigma: 0.05, start_turn_deg: 25, start_turn_axes: zx, "
+      "search_candidates: 3, search: {axis: y, heading_range_deg: 90, translation_range: 2, "
+      "cell: 0.2}}"));
+  EXPECT_EQ(s.obmnet.search_candidates, 3);
+  EXPECT_EQ(s.obmnet.search.axis, "y");
+  EXPECT_DOUBLE_EQ(s.obmnet.search.heading_range_deg, 90.0);
+  EXPECT_DOUBLE_EQ(s.obmnet.search.translation_range, 2.0);
+  EXPECT_DOUBLE_EQ(s.obmnet.search.cell, 0.2);
+  EXPECT_EQ(c.obmnet.search_candidates, 0);  // the shipped YAML: no search
+  EXPECT_EQ(c.obmnet.search.axis, "z");
   EXPECT_FALSE(s.obmnet.select_by_consensus);
   EXPECT_TRUE(c.obmnet.select_by_consensus);
   EXPECT_EQ(s.obmnet.iterations, 4);

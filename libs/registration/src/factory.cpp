@@ -33,7 +33,9 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
                   "ransac_candidates",
                   "ransac_inlier_spacing",
                   "ransac_max_turn_deg",
-                  "select_by_consensus"});
+                  "select_by_consensus",
+                  "search_candidates",
+                  "search"});
   p.model_path = node.required<std::string>("model_path");
   node.get("num_points", p.num_points);
   node.get("threads", p.threads);
@@ -80,6 +82,10 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   node.get("start_turn_deg", p.start_turn_deg);
   if (!(p.start_turn_deg >= 0.0 && p.start_turn_deg <= 180.0))
     throw ConfigError(node.where("start_turn_deg") + ": must be in [0, 180] (0 = off)");
+  node.get("search_candidates", p.search_candidates);
+  if (p.search_candidates < 0)
+    throw ConfigError(node.where("search_candidates") + ": must be >= 0 (0 = off)");
+  if (node.has("search")) p.search = CorrelativeSearchParams::load(node.child("search"));
   node.get("start_turn_axes", p.start_turn_axes);
   if (const std::string why = startTurnAxesError(p.start_turn_axes); !why.empty())
     throw ConfigError(node.where("start_turn_axes") + ": " + why);

@@ -237,6 +237,9 @@ ObmNetIcpMatcher::ObmNetIcpMatcher(const ObmNetMatcherParams& params, const IcpP
     throw ConfigError("obmnet matcher: start_turn_deg must be in [0, 180] (0 = off)");
   if (const std::string why = startTurnAxesError(params.start_turn_axes); !why.empty())
     throw ConfigError("obmnet matcher: start_turn_axes: " + why);
+  if (params.search_candidates < 0)
+    throw ConfigError("obmnet matcher: search_candidates must be >= 0 (0 = off)");
+  if (params.search_candidates > 0) params.search.validate();
   impl_.reset(new Impl{params, makeRegistrar(params)});
 }
 
@@ -387,17 +390,18 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
   const ObmNetMatcherParams& p = impl_->params;
   Refinement best =
       refineFrom(impl_->registrar, p, icp_, confidence_, source, target, T_target_source_init);
+  // Further starts compete on the share of the network's SVD weight that lands on the target
+  // (the bias-weighted confidence), which tells a start that arrived from one that did not
+  // better than ICP's counts (docs/registration.md).
+  auto score = [&](const Refinement& r) {
+    if (!r.net.ok || r.result.status == MatchStatus::TooFewCorrespondences) return -1.0;
+    return biasWeightedConfidence(r.net, target, r.result.T_target_source, icp_, confidence_);
+  };
+  double best_score = p.start_turn_deg > 0.0 || p.search_candidates > 0 ? score(best) : -1.0;
   if (p.start_turn_deg > 0.0) {
     // More starts: the source turned about its origin, p' = R·p, so the network (pre-aligned
     // by the guess or not) sees the pair from elsewhere; a pose T' of the turned source is the
-    // pose T'·R of the source. The starts compete on the share of the network's SVD weight
-    // that lands on the target (the bias-weighted confidence), which tells a start that
-    // arrived from one that did not better than ICP's counts (docs/registration.md).
-    auto score = [&](const Refinement& r) {
-      if (!r.net.ok || r.result.status == MatchStatus::TooFewCorrespondences) return -1.0;
-      return biasWeightedConfidence(r.net, target, r.result.T_target_source, icp_, confidence_);
-    };
-    double best_score = score(best);
+    // pose T'·R of the source.
     for (const Isometry3d& turn : startTurns(p.start_turn_deg, p.start_turn_axes)) {
       Refinement r = refineFrom(impl_->registrar, p, icp_, confidence_,
                                 source.transformed(turn, source.frame_id), target,
@@ -409,6 +413,36 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
       r.result.T_target_source = r.result.T_target_source * turn;
       const Eigen::Matrix3f R_back = turn.linear().transpose().cast<float>();
       for (auto& q : r.net.sampled) q = R_back * q;
+      best = std::move(r);
+      best_score = s;
+    }
+  }
+  if (p.search_candidates > 0) {
+    // Starts from the correlative search (docs/registration.md, "Correlative search"): each of
+    // its poses is a start the network corrects and ICP refines, scored like the turns. As for
+    // the turns the source itself is moved, p' = H·p with H = T_init⁻¹·T_hit, so the network sees
+    // the pair from the hit whether it pre-aligns or not. ICP also runs from the hit itself (one
+    // "heading" from the refinement's gate, no margin): the network's pass moves some right
+    // starts away (docs/benchmarks.md, "A global start for frame pairs").
+    CorrelativeSearchParams sp = p.search;
+    sp.candidates = p.search_candidates;
+    ObmNetMatcherParams at_hit = p;
+    at_hit.start_turn_deg = 0.0;
+    at_hit.search_candidates = 0;
+    at_hit.init_headings = 1;
+    at_hit.init_headings_gate = 0.0;
+    at_hit.init_headings_margin = 1.0;
+    for (const SearchHit& hit :
+         correlativeSearch(source, target.cloud(), sp, T_target_source_init)) {
+      const Isometry3d H = T_target_source_init.inverse() * hit.T_target_source;
+      Refinement r = refineFrom(impl_->registrar, at_hit, icp_, confidence_,
+                                source.transformed(H, source.frame_id), target,
+                                T_target_source_init);
+      const double s = score(r);
+      if (s <= best_score) continue;
+      r.result.T_target_source = r.result.T_target_source * H;
+      const Eigen::Isometry3f H_back = H.inverse().cast<float>();
+      for (auto& q : r.net.sampled) q = H_back * q;
       best = std::move(r);
       best_score = s;
     }

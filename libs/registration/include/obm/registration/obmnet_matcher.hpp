@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "obm/registration/correlative_search.hpp"
 #include "obm/registration/scan_matcher.hpp"
 
 namespace obm {
@@ -101,6 +102,15 @@ struct ObmNetMatcherParams {
   /// The axes of the start turns, any of x, y and z, each at most once. For a camera frame (x
   /// right, y down, z forward) "xy" turns the view up/down and left/right.
   std::string start_turn_axes = "xy";
+  /// ObmNetIcpMatcher, starts from a correlative search (0 = off): the search over the heading
+  /// about `search.axis` and the translation (correlativeSearch, relative to the guess) hands its
+  /// best `search_candidates` poses on, and the network and its ICP run from each of them,
+  /// competing with the other starts on the bias-weighted confidence. For pairs turned about a
+  /// known vertical by more than the network and ICP reach from the guess (RGB-D frames far
+  /// apart: docs/registration.md, "Correlative search"). Each pose costs a network pass and its
+  /// ICP; the search itself a fraction of one.
+  int search_candidates = 0;
+  CorrelativeSearchParams search;  ///< YAML `search:`; its `candidates` is search_candidates
 
   /// Reads the keys of `node` (model_path required; unknown keys rejected). A relative
   /// model_path is resolved against the folder of the YAML file.
