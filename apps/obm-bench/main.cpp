@@ -256,8 +256,9 @@ bench::Method icpTurnsMethod(std::shared_ptr<const registration::ScanMatcher> ic
             for (const Isometry3d& turn : registration::startTurns(deg, axes))
               starts.push_back(turn);
             std::optional<registration::MatchResult> best;
+            const registration::PreparedTarget target = icp->prepare(t);  // once for all starts
             for (const Isometry3d& T0 : starts) {
-              registration::MatchResult r = icp->match(s, t, T0);
+              registration::MatchResult r = icp->match(s, target, T0);
               if (r.status == registration::MatchStatus::TooFewCorrespondences) continue;
               if (!best || r.inlier_ratio > best->inlier_ratio) best = std::move(r);
             }
@@ -302,8 +303,10 @@ bench::Method searchIcpMethod(std::shared_ptr<const registration::ScanMatcher> r
                               const registration::CorrelativeSearchParams& p) {
   return {"search+icp", [refine, p](const PointCloud& s, const PointCloud& t) {
             std::optional<registration::MatchResult> best;
+            // One prepared target (normals, colour gradients) for every start.
+            const registration::PreparedTarget target = refine->prepare(t);
             for (const Isometry3d& T0 : searchPoses(s, t, p)) {
-              registration::MatchResult r = refine->match(s, t, T0);
+              registration::MatchResult r = refine->match(s, target, T0);
               if (r.status == registration::MatchStatus::TooFewCorrespondences) continue;
               if (!best || r.inlier_ratio > best->inlier_ratio) best = std::move(r);
             }
@@ -566,8 +569,9 @@ int main(int argc, char** argv) {
                  "from a right start (the identity row is then that start)");
   std::string search_axis, search_range;
   double search_cell = 0.0;
-  int search_candidates = 4;
-  int search_shifts = 1;
+  int search_candidates = 8;
+  int search_shifts = 3;
+  double search_color = 0.05;
   app.add_option("--search-axis", search_axis,
                  "the turn axis of the search rows (search, search+icp, obmnet+icp+search, "
                  "obmnet+icp-turns+fgr+search) in the source frame: x, y or z (default: y for "
@@ -583,6 +587,11 @@ int main(int argc, char** argv) {
   app.add_option("--search-shifts", search_shifts,
                  "translations the search keeps per heading before ranking all its poses")
       ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--search-color", search_color,
+                 "grey-level tolerance of the search's occupancy on coloured pairs (0 = off): a "
+                 "point on an occupied cell of another grey counts half")
+      ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
   app.add_option("--search-candidates", search_candidates,
                  "poses the search hands on to the refinement, best first")
@@ -821,6 +830,7 @@ int main(int argc, char** argv) {
     search.candidates = search_candidates;
     search.shifts_per_heading = search_shifts;
     search.seed = seed;
+    search.color_tolerance = search_color;
     try {
       search.validate();
     } catch (const ConfigError& e) {

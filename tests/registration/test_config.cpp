@@ -173,6 +173,21 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
   EXPECT_DOUBLE_EQ(s.obmnet.search.cell, 0.2);
   EXPECT_EQ(c.obmnet.search_candidates, 0);  // the shipped YAML: no search
   EXPECT_EQ(c.obmnet.search.axis, "z");
+  // ... and otherwise the search's defaults, as the YAML's comments say.
+  const registration::CorrelativeSearchParams d;
+  EXPECT_EQ(c.obmnet.search.axis_from_floor, d.axis_from_floor);
+  EXPECT_DOUBLE_EQ(c.obmnet.search.max_tilt_deg, d.max_tilt_deg);
+  EXPECT_DOUBLE_EQ(c.obmnet.search.heading_range_deg, d.heading_range_deg);
+  EXPECT_DOUBLE_EQ(c.obmnet.search.heading_step_deg, d.heading_step_deg);
+  EXPECT_DOUBLE_EQ(c.obmnet.search.translation_range, d.translation_range);
+  EXPECT_DOUBLE_EQ(c.obmnet.search.axial_range, d.axial_range);
+  EXPECT_DOUBLE_EQ(c.obmnet.search.cell, d.cell);
+  EXPECT_EQ(c.obmnet.search.sample_points, d.sample_points);
+  EXPECT_EQ(c.obmnet.search.shifts_per_heading, d.shifts_per_heading);
+  EXPECT_DOUBLE_EQ(c.obmnet.search.min_separation_deg, d.min_separation_deg);
+  EXPECT_DOUBLE_EQ(c.obmnet.search.min_separation_m, d.min_separation_m);
+  EXPECT_DOUBLE_EQ(c.obmnet.search.color_tolerance, d.color_tolerance);
+  EXPECT_EQ(c.obmnet.search.seed, d.seed);
   EXPECT_FALSE(s.obmnet.select_by_consensus);
   EXPECT_TRUE(c.obmnet.select_by_consensus);
   EXPECT_EQ(s.obmnet.iterations, 4);

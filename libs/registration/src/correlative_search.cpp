@@ -11,6 +11,7 @@
 
 #include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
+#include "obm/registration/prepared_target.hpp"
 
 namespace obm::registration {
 
@@ -33,6 +34,8 @@ void CorrelativeSearchParams::validate() const {
   if (translation_range / cell > 30.0)
     throw ConfigError("correlative search: translation_range / cell must be <= 30 (a coarser "
                       "cell or a shorter range)");
+  if (!(color_tolerance >= 0.0 && color_tolerance <= 1.0))
+    throw ConfigError("correlative search: color_tolerance must be in [0, 1] (0 = off)");
   if (sample_points < 0) throw ConfigError("correlative search: sample_points must be >= 0");
   if (candidates < 1) throw ConfigError("correlative search: candidates must be >= 1");
   if (shifts_per_heading < 1)
@@ -46,7 +49,7 @@ CorrelativeSearchParams CorrelativeSearchParams::load(const ConfigNode& node) {
   node.checkKeys({"axis", "axis_from_floor", "max_tilt_deg", "heading_range_deg",
                   "heading_step_deg", "translation_range", "axial_range", "cell",
                   "sample_points", "candidates", "shifts_per_heading", "min_separation_deg",
-                  "min_separation_m", "seed"});
+                  "min_separation_m", "color_tolerance", "seed"});
   node.get("axis", p.axis);
   node.get("axis_from_floor", p.axis_from_floor);
   node.get("max_tilt_deg", p.max_tilt_deg);
@@ -60,6 +63,7 @@ CorrelativeSearchParams CorrelativeSearchParams::load(const ConfigNode& node) {
   node.get("shifts_per_heading", p.shifts_per_heading);
   node.get("min_separation_deg", p.min_separation_deg);
   node.get("min_separation_m", p.min_separation_m);
+  node.get("color_tolerance", p.color_tolerance);
   node.get("seed", p.seed);
   try {
     p.validate();
@@ -80,12 +84,16 @@ struct OccupancyField {
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();  ///< corner of cell (0, 0, 0) [m]
   std::array<int, 3> dims{0, 0, 0};
   std::vector<std::uint8_t> value;
+  /// With colours: the mean grey level (0–255) of the target points in each occupied cell.
+  std::vector<std::uint8_t> grey;
 
   std::int64_t index(int x, int y, int z) const {
     return (static_cast<std::int64_t>(z) * dims[1] + y) * dims[0] + x;
   }
 
-  OccupancyField(const std::vector<Vector3f>& points, double c, int pad) : cell(c) {
+  OccupancyField(const std::vector<Vector3f>& points, double c, int pad,
+                 const std::vector<std::uint8_t>* point_grey = nullptr)
+      : cell(c) {
     Eigen::Vector3d lo = points.front().cast<double>(), hi = lo;
     for (const auto& p : points) {
       lo = lo.cwiseMin(p.cast<double>());
@@ -101,6 +109,19 @@ struct OccupancyField {
       const std::int64_t i = index(k[0], k[1], k[2]);
       if (value[static_cast<std::size_t>(i)] == 0) occupied.push_back(i);
       value[static_cast<std::size_t>(i)] = 2;
+    }
+    if (point_grey) {
+      std::unordered_map<std::int64_t, std::pair<std::uint32_t, std::uint32_t>> sums;
+      for (std::size_t j = 0; j < points.size(); ++j) {
+        const auto k = cellOf(points[j].cast<double>());
+        auto& acc = sums[index(k[0], k[1], k[2])];
+        acc.first += (*point_grey)[j];
+        ++acc.second;
+      }
+      grey.assign(value.size(), 0);
+      for (const auto& kv : sums)
+        grey[static_cast<std::size_t>(kv.first)] =
+            static_cast<std::uint8_t>((kv.second.first + kv.second.second / 2) / kv.second.second);
     }
     for (const std::int64_t i : occupied) {
       const int x = static_cast<int>(i % dims[0]);
@@ -126,13 +147,28 @@ struct OccupancyField {
 
 /// Score of the points (cells already computed, -1 = outside the reach of any shift) shifted by
 /// `shift` cells: the sum of the field's values.
+/// With `grey` (the scored points' grey levels, 0–255, and a field with colours), a point in an
+/// occupied cell whose grey differs from the cell's by more than `tolerance` counts as one next
+/// to it: a slide along a textured wall keeps its points on the wall, not on its texture.
 std::int64_t scoreShift(const OccupancyField& f, const std::vector<std::int64_t>& base,
-                        const std::array<int, 3>& shift) {
-  const std::int64_t off = (static_cast<std::int64_t>(shift[2]) * f.dims[1] + shift[1]) * f.dims[0] +
-                           shift[0];
+                        const std::array<int, 3>& shift,
+                        const std::vector<std::uint8_t>* grey = nullptr, int tolerance = 0) {
+  const std::int64_t off =
+      (static_cast<std::int64_t>(shift[2]) * f.dims[1] + shift[1]) * f.dims[0] + shift[0];
   std::int64_t s = 0;
-  for (const std::int64_t b : base)
-    if (b >= 0) s += f.value[static_cast<std::size_t>(b + off)];
+  if (!grey || f.grey.empty()) {
+    for (const std::int64_t b : base)
+      if (b >= 0) s += f.value[static_cast<std::size_t>(b + off)];
+    return s;
+  }
+  for (std::size_t i = 0; i < base.size(); ++i) {
+    if (base[i] < 0) continue;
+    const auto c = static_cast<std::size_t>(base[i] + off);
+    const std::uint8_t v = f.value[c];
+    s += v == 2 && std::abs(static_cast<int>(f.grey[c]) - static_cast<int>((*grey)[i])) > tolerance
+             ? 1
+             : v;
+  }
   return s;
 }
 
@@ -240,9 +276,24 @@ std::vector<SearchHit> correlativeSearch(const PointCloud& source, const PointCl
   idx.resize(n);
 
   const int reach = static_cast<int>(std::lround(params.translation_range / params.cell));
-  const OccupancyField coarse(target.points, params.cell, reach + 1);
+  // Colours: both clouds must carry them (the grey levels of coloured ICP, colorIntensity).
+  const bool coloured =
+      params.color_tolerance > 0.0 && source.hasColors() && target.hasColors();
+  std::vector<std::uint8_t> target_grey, source_grey;
+  if (coloured) {
+    auto to8 = [](const Color3u8& c) {
+      return static_cast<std::uint8_t>(std::lround(255.0f * colorIntensity(c)));
+    };
+    for (const auto& c : target.colors) target_grey.push_back(to8(c));
+    for (const std::size_t i : idx) source_grey.push_back(to8(source.colors[i]));
+  }
+  const int tolerance = static_cast<int>(std::lround(255.0 * params.color_tolerance));
+  const std::vector<std::uint8_t>* grey = coloured ? &source_grey : nullptr;
+  const OccupancyField coarse(target.points, params.cell, reach + 1,
+                              coloured ? &target_grey : nullptr);
   // The fine field: half the cell, reaching one coarse cell around each heading's best shift.
-  const OccupancyField fine(target.points, 0.5 * params.cell, 2 * (reach + 2));
+  const OccupancyField fine(target.points, 0.5 * params.cell, 2 * (reach + 2),
+                            coloured ? &target_grey : nullptr);
   const int axis_index = params.axis == "x" ? 0 : params.axis == "y" ? 1 : 2;
   Eigen::Vector3d axis = Eigen::Vector3d::Unit(axis_index);
   if (params.axis_from_floor) {
@@ -279,7 +330,7 @@ std::vector<SearchHit> correlativeSearch(const PointCloud& source, const PointCl
     for (int z = -span[2]; z <= span[2]; ++z)
       for (int y = -span[1]; y <= span[1]; ++y)
         for (int x = -span[0]; x <= span[0]; ++x)
-          shifts.push_back({scoreShift(coarse, base, {x, y, z}), {x, y, z}});
+          shifts.push_back({scoreShift(coarse, base, {x, y, z}, grey, tolerance), {x, y, z}});
     // The best shifts of this heading, pairwise min_separation_m apart (a slide along a wall
     // can outscore the right place by a few points: both go on to the refinement).
     std::stable_sort(shifts.begin(), shifts.end(),
@@ -303,7 +354,7 @@ std::vector<SearchHit> correlativeSearch(const PointCloud& source, const PointCl
           for (int x = -2; x <= 2; ++x) {
             const std::array<int, 3> s3{2 * best_shift[0] + x, 2 * best_shift[1] + y,
                                         2 * best_shift[2] + z};
-            const std::int64_t sc = scoreShift(fine, fbase, s3);
+            const std::int64_t sc = scoreShift(fine, fbase, s3, grey, tolerance);
             if (sc > fbest) {
               fbest = sc;
               fshift = s3;

@@ -398,6 +398,7 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
     return biasWeightedConfidence(r.net, target, r.result.T_target_source, icp_, confidence_);
   };
   double best_score = p.start_turn_deg > 0.0 || p.search_candidates > 0 ? score(best) : -1.0;
+  const NetworkStage first_net = p.search_candidates > 0 ? best.net : NetworkStage();
   if (p.start_turn_deg > 0.0) {
     // More starts: the source turned about its origin, p' = R·p, so the network (pre-aligned
     // by the guess or not) sees the pair from elsewhere; a pose T' of the turned source is the
@@ -417,32 +418,23 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
       best_score = s;
     }
   }
-  if (p.search_candidates > 0) {
-    // Starts from the correlative search (docs/registration.md, "Correlative search"): each of
-    // its poses is a start the network corrects and ICP refines, scored like the turns. As for
-    // the turns the source itself is moved, p' = H·p with H = T_init⁻¹·T_hit, so the network sees
-    // the pair from the hit whether it pre-aligns or not. ICP also runs from the hit itself (one
-    // "heading" from the refinement's gate, no margin): the network's pass moves some right
-    // starts away (docs/benchmarks.md, "A global start for frame pairs").
+  if (p.search_candidates > 0 && first_net.ok) {
+    // Starts from the correlative search (docs/registration.md, "Correlative search"): ICP from
+    // each of its poses, scored by the same bias-weighted confidence with the weights of the
+    // network's first pass (its sampled points and ω are the source's, valid at any pose). A
+    // network pass from each pose would cost a second per pose on depth frames and, measured
+    // on the simulated frame pairs, registers the same pairs (docs/benchmarks.md).
     CorrelativeSearchParams sp = p.search;
     sp.candidates = p.search_candidates;
-    ObmNetMatcherParams at_hit = p;
-    at_hit.start_turn_deg = 0.0;
-    at_hit.search_candidates = 0;
-    at_hit.init_headings = 1;
-    at_hit.init_headings_gate = 0.0;
-    at_hit.init_headings_margin = 1.0;
+    const std::vector<float> grey = colorIntensities(source, target, icp_);
+    const std::vector<float>* source_grey = grey.empty() ? nullptr : &grey;
     for (const SearchHit& hit :
          correlativeSearch(source, target.cloud(), sp, T_target_source_init)) {
-      const Isometry3d H = T_target_source_init.inverse() * hit.T_target_source;
-      Refinement r = refineFrom(impl_->registrar, at_hit, icp_, confidence_,
-                                source.transformed(H, source.frame_id), target,
-                                T_target_source_init);
+      const IcpOutcome o =
+          runIcp(source.points, target, hit.T_target_source, icp_, nullptr, source_grey);
+      Refinement r{o.toMatchResult(), first_net};
       const double s = score(r);
       if (s <= best_score) continue;
-      r.result.T_target_source = r.result.T_target_source * H;
-      const Eigen::Isometry3f H_back = H.inverse().cast<float>();
-      for (auto& q : r.net.sampled) q = H_back * q;
       best = std::move(r);
       best_score = s;
     }

@@ -44,13 +44,17 @@ struct CorrelativeSearchParams {
   /// heading is then refined on a grid of half this cell.
   double cell = 0.1;
   int sample_points = 1000;  ///< source points scored (a fixed random subset; 0 = all)
-  int candidates = 4;        ///< poses returned, best first
+  int candidates = 8;        ///< poses returned, best first
   /// Translations kept per heading (pairwise min_separation_m apart) before the poses of all
   /// headings are ranked: the right place can score a little below a slide at the same heading.
-  int shifts_per_heading = 1;
+  int shifts_per_heading = 3;
   /// Two returned poses differ by at least this heading or this translation [deg, m].
   double min_separation_deg = 10.0;
   double min_separation_m = 0.3;
+  /// Grey-level agreement (0 = off; grey levels in [0, 1]): when both clouds carry colours, a
+  /// source point in an occupied cell whose grey level differs from the cell's mean by more
+  /// than this counts as a point next to one.
+  double color_tolerance = 0.05;
   std::uint64_t seed = 0;  ///< seeds the source subset
 
   /// Throws ConfigError naming the field when a value is out of range.

@@ -104,11 +104,11 @@ struct ObmNetMatcherParams {
   std::string start_turn_axes = "xy";
   /// ObmNetIcpMatcher, starts from a correlative search (0 = off): the search over the heading
   /// about `search.axis` and the translation (correlativeSearch, relative to the guess) hands its
-  /// best `search_candidates` poses on, and the network and its ICP run from each of them,
-  /// competing with the other starts on the bias-weighted confidence. For pairs turned about a
-  /// known vertical by more than the network and ICP reach from the guess (RGB-D frames far
-  /// apart: docs/registration.md, "Correlative search"). Each pose costs a network pass and its
-  /// ICP; the search itself a fraction of one.
+  /// best `search_candidates` poses on; ICP runs from each of them, and the results compete with
+  /// the other starts on the bias-weighted confidence (with the SVD weights of the network's
+  /// pass from the guess). For pairs turned about a vertical by more than the network and ICP
+  /// reach from the guess (RGB-D frames far apart: docs/registration.md, "Correlative search").
+  /// Each pose costs one ICP.
   int search_candidates = 0;
   CorrelativeSearchParams search;  ///< YAML `search:`; its `candidates` is search_candidates
 
