@@ -221,49 +221,48 @@ std::shared_ptr<registration::IcpMatcher> objectRefineIcpMatcher(double unit,
                                                     objectConfidenceParams(unit, finish));
 }
 
+/// ICP from each of `starts` against one prepared target, keeping the result with the largest
+/// inlier ratio (ICP's own score; the network's rows use their confidence): the classical rows
+/// with several starts.
+bench::MethodResult bestIcpOfStarts(const registration::ScanMatcher& icp, const PointCloud& s,
+                                    const PointCloud& t, const std::vector<Isometry3d>& starts) {
+  std::optional<registration::MatchResult> best;
+  const registration::PreparedTarget target = icp.prepare(t);  // once for all starts
+  for (const Isometry3d& T0 : starts) {
+    registration::MatchResult r = icp.match(s, target, T0);
+    if (r.status == registration::MatchStatus::TooFewCorrespondences) continue;
+    if (!best || r.inlier_ratio > best->inlier_ratio) best = std::move(r);
+  }
+  if (!best) best = icp.match(s, target, Isometry3d::Identity());
+  return matchResult(*best);
+}
+
 /// The classical counterpart of the network's yaw hypotheses (`icp-yaw4`): ICP from the identity
 /// turned by 0°, 90°, 180° and 270° about the source frame's z axis (the sensor's vertical for a
-/// sweep), keeping the result with the largest inlier ratio (as ObmNetIcpMatcher's competing
-/// starts). Shows what
-/// the network's poses add over trying the same headings blindly.
+/// sweep). Shows what the network's poses add over trying the same headings blindly.
 bench::Method icpYawMethod(std::shared_ptr<const registration::ScanMatcher> icp, int headings) {
   return {"icp-yaw" + std::to_string(headings),
           [icp, headings](const PointCloud& s, const PointCloud& t) {
-            std::optional<registration::MatchResult> best;
-            for (int h = 0; h < headings; ++h) {
-              const Isometry3d T0 =
+            std::vector<Isometry3d> starts;
+            for (int h = 0; h < headings; ++h)
+              starts.push_back(
                   makeIsometry(Eigen::AngleAxisd(2.0 * 3.14159265358979323846 * h / headings,
                                                  Eigen::Vector3d::UnitZ())
                                    .toRotationMatrix(),
-                               Eigen::Vector3d::Zero());
-              registration::MatchResult r = icp->match(s, t, T0);
-              if (r.status == registration::MatchStatus::TooFewCorrespondences) continue;
-              if (!best || r.inlier_ratio > best->inlier_ratio) best = std::move(r);
-            }
-            if (!best) best = icp->match(s, t, Isometry3d::Identity());
-            return matchResult(*best);
+                               Eigen::Vector3d::Zero()));
+            return bestIcpOfStarts(*icp, s, t, starts);
           }};
 }
 
 /// The classical counterpart of the matcher's start turns (`icp-turns`): ICP from the identity
-/// and from the identity turned by ±`deg` about each of `axes` of the source frame, keeping the
-/// result with the largest inlier ratio (ICP's own score; the network's rows use their
-/// confidence).
+/// and from the identity turned by ±`deg` about each of `axes` of the source frame.
 bench::Method icpTurnsMethod(std::shared_ptr<const registration::ScanMatcher> icp, double deg,
                              const std::string& axes) {
   return {"icp-turns", [icp, deg, axes](const PointCloud& s, const PointCloud& t) {
             std::vector<Isometry3d> starts{Isometry3d::Identity()};
             for (const Isometry3d& turn : registration::startTurns(deg, axes))
               starts.push_back(turn);
-            std::optional<registration::MatchResult> best;
-            const registration::PreparedTarget target = icp->prepare(t);  // once for all starts
-            for (const Isometry3d& T0 : starts) {
-              registration::MatchResult r = icp->match(s, target, T0);
-              if (r.status == registration::MatchStatus::TooFewCorrespondences) continue;
-              if (!best || r.inlier_ratio > best->inlier_ratio) best = std::move(r);
-            }
-            if (!best) best = icp->match(s, t, Isometry3d::Identity());
-            return matchResult(*best);
+            return bestIcpOfStarts(*icp, s, t, starts);
           }};
 }
 
@@ -298,20 +297,11 @@ std::vector<Isometry3d> searchPoses(const PointCloud& s, const PointCloud& t,
 }
 
 /// The classical chain on the same starts (`search+icp`): the refinement of `obmnet+icp` from
-/// each of the search's poses, the result with the largest inlier ratio kept (ICP's own score).
+/// each of the search's poses.
 bench::Method searchIcpMethod(std::shared_ptr<const registration::ScanMatcher> refine,
                               const registration::CorrelativeSearchParams& p) {
   return {"search+icp", [refine, p](const PointCloud& s, const PointCloud& t) {
-            std::optional<registration::MatchResult> best;
-            // One prepared target (normals, colour gradients) for every start.
-            const registration::PreparedTarget target = refine->prepare(t);
-            for (const Isometry3d& T0 : searchPoses(s, t, p)) {
-              registration::MatchResult r = refine->match(s, target, T0);
-              if (r.status == registration::MatchStatus::TooFewCorrespondences) continue;
-              if (!best || r.inlier_ratio > best->inlier_ratio) best = std::move(r);
-            }
-            if (!best) best = refine->match(s, t, Isometry3d::Identity());
-            return matchResult(*best);
+            return bestIcpOfStarts(*refine, s, t, searchPoses(s, t, p));
           }};
 }
 
