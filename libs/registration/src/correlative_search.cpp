@@ -146,10 +146,10 @@ struct OccupancyField {
 };
 
 /// Score of the points (cells already computed, -1 = outside the reach of any shift) shifted by
-/// `shift` cells: the sum of the field's values.
-/// With `grey` (the scored points' grey levels, 0–255, and a field with colours), a point in an
-/// occupied cell whose grey differs from the cell's by more than `tolerance` counts as one next
-/// to it: a slide along a textured wall keeps its points on the wall, not on its texture.
+/// `shift` cells: the sum of the field's values. With `grey` (the scored points' grey levels,
+/// 0–255) and a field with colours, a point in an occupied cell whose grey differs from the
+/// cell's by more than `tolerance` counts as one next to it: a slide along a textured wall keeps
+/// its points on the wall, not on its texture.
 std::int64_t scoreShift(const OccupancyField& f, const std::vector<std::int64_t>& base,
                         const std::array<int, 3>& shift,
                         const std::vector<std::uint8_t>* grey = nullptr, int tolerance = 0) {
@@ -186,10 +186,7 @@ std::vector<std::int64_t> baseCells(const OccupancyField& f, const std::vector<E
   return out;
 }
 
-}  // namespace
-
-namespace {
-
+/// floorNormal at one patch size.
 std::optional<Eigen::Vector3d> floorNormalAt(const std::vector<Vector3f>& points, double cell,
                                              const Eigen::Vector3d& nominal, double max_tilt_deg) {
   struct Moments {

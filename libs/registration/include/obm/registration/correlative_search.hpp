@@ -70,7 +70,8 @@ struct SearchHit {
   /// The turn axis in the source frame (CorrelativeSearchParams::axis, or the floor's normal).
   Eigen::Vector3d axis = Eigen::Vector3d::UnitY();
   /// Share of the scored source points in an occupied target cell (1 per point in an occupied
-  /// fine cell, ½ in a cell next to one), in [0, 1].
+  /// fine cell, ½ in a cell next to one or, with colour_tolerance, in an occupied cell of another
+  /// grey level), in [0, 1].
   double score = 0.0;
 };
 
