@@ -509,6 +509,42 @@ TEST(ModelAccuracy, FramesModelAloneOnPairsOfRealRgbdFrames) {
   EXPECT_GE(ok, 9) << ok << " of " << n << " real frame pairs within 5° and 0.1 m after ICP";
 }
 
+/// Each real frame pair with its source moved by A (s' = A·s, truth T·A⁻¹), registered by a
+/// single-start matcher and by one with more starts: how many of each land within 5° and 0.1 m.
+/// The single start is among the other's, so the chosen result is at least as confident.
+struct MovedFramesCount {
+  int ok_one = 0, ok_more = 0, n = 0;
+};
+MovedFramesCount compareOnMovedRealFrames(const registration::ObmNetIcpMatcher& one,
+                                          const registration::ObmNetIcpMatcher& more,
+                                          const Isometry3d& A, const char* more_label) {
+  const auto seq = io::RgbdSequence::openRedwood(test::sharedDataDir() + "/rgbd_open3d");
+  EXPECT_GE(seq.size(), 5u);
+  MovedFramesCount c;
+  forEachRealFramePair(seq, [&](const PointCloud& s, const PointCloud& t, const Isometry3d& truth) {
+    const PointCloud moved = s.transformed(A, s.frame_id);
+    const Isometry3d truth_moved = truth * A.inverse();  // T_t_s' for s' = A·s
+    const registration::MatchResult a = one.match(moved, t);
+    const registration::MatchResult b = more.match(moved, t);
+    std::printf("one start %.2f deg %.3f m (confidence %.3f), %s %.2f deg %.3f m "
+                "(confidence %.3f)\n",
+                rreDeg(a.T_target_source, truth_moved), rte(a.T_target_source, truth_moved),
+                a.network_confidence, more_label, rreDeg(b.T_target_source, truth_moved),
+                rte(b.T_target_source, truth_moved), b.network_confidence);
+    auto ok = [&](const registration::MatchResult& r) {
+      return rreDeg(r.T_target_source, truth_moved) < 5.0 &&
+             rte(r.T_target_source, truth_moved) < 0.1;
+    };
+    c.ok_one += ok(a);
+    c.ok_more += ok(b);
+    EXPECT_GE(b.network_confidence, a.network_confidence - 1e-9);
+    ++c.n;
+  });
+  std::printf("within 5 deg and 0.1 m: one start %d, %s %d of %d\n", c.ok_one, more_label,
+              c.ok_more, c.n);
+  return c;
+}
+
 TEST(ModelAccuracy, StartTurnsRecoverRealFramesSeenTurned) {
   // Each source frame turned 70° about the camera's y axis (as if the camera had panned): from
   // there the frame model and ICP land 5–47° short on every pair (they arrive from 50°, measured
@@ -516,38 +552,14 @@ TEST(ModelAccuracy, StartTurnsRecoverRealFramesSeenTurned) {
   // (ObmNetMatcherParams::start_turn_deg) the start 5° from the truth arrives, and the
   // bias-weighted confidence has to pick it out of the three.
   OBM_REQUIRE_SHARED_DATA("rgbd_open3d/trajectory.log");
-  const auto seq = io::RgbdSequence::openRedwood(test::sharedDataDir() + "/rgbd_open3d");
-  ASSERT_GE(seq.size(), 5u);
-  const auto one = realFramesMatcher("obmnet_indoor_frames.pt");
-  const auto turns = realFramesMatcher("obmnet_indoor_frames.pt", 65.0, "y");
   const Isometry3d R = makeIsometry(
       Eigen::AngleAxisd(70.0 * kDegToRad, Eigen::Vector3d::UnitY()).toRotationMatrix(),
       Eigen::Vector3d::Zero());
-  int ok_one = 0, ok_turns = 0, n = 0;
-  forEachRealFramePair(seq, [&](const PointCloud& s, const PointCloud& t, const Isometry3d& truth) {
-    const PointCloud turned = s.transformed(R, s.frame_id);
-    const Isometry3d truth_turned = truth * R.inverse();  // T_t_s' for s' = R·s
-    const registration::MatchResult a = one.match(turned, t);
-    const registration::MatchResult b = turns.match(turned, t);
-    std::printf("one start %.2f deg %.3f m (confidence %.3f), three starts %.2f deg %.3f m "
-                "(confidence %.3f)\n",
-                rreDeg(a.T_target_source, truth_turned), rte(a.T_target_source, truth_turned),
-                a.network_confidence, rreDeg(b.T_target_source, truth_turned),
-                rte(b.T_target_source, truth_turned), b.network_confidence);
-    auto ok = [&](const registration::MatchResult& r) {
-      return rreDeg(r.T_target_source, truth_turned) < 5.0 &&
-             rte(r.T_target_source, truth_turned) < 0.1;
-    };
-    ok_one += ok(a);
-    ok_turns += ok(b);
-    // The first start is the single start's own, so the chosen one is at least as confident.
-    EXPECT_GE(b.network_confidence, a.network_confidence - 1e-9);
-    ++n;
-  });
-  std::printf("within 5 deg and 0.1 m: one start %d, three starts %d of %d\n", ok_one, ok_turns,
-              n);
-  EXPECT_GE(ok_turns, 9) << "of " << n;
-  EXPECT_GT(ok_turns, ok_one) << "of " << n;
+  const auto c = compareOnMovedRealFrames(realFramesMatcher("obmnet_indoor_frames.pt"),
+                                          realFramesMatcher("obmnet_indoor_frames.pt", 65.0, "y"),
+                                          R, "three starts");
+  EXPECT_GE(c.ok_more, 9) << "of " << c.n;
+  EXPECT_GT(c.ok_more, c.ok_one) << "of " << c.n;
 }
 
 TEST(ModelAccuracy, SearchStartsRecoverRealFramesSeenTurnedAndMoved) {
@@ -556,39 +568,14 @@ TEST(ModelAccuracy, SearchStartsRecoverRealFramesSeenTurnedAndMoved) {
   // more starts (ObmNetMatcherParams::search_candidates) ICP from the search's pose nearest the
   // truth arrives, and the bias-weighted confidence has to pick it out of nine.
   OBM_REQUIRE_SHARED_DATA("rgbd_open3d/trajectory.log");
-  const auto seq = io::RgbdSequence::openRedwood(test::sharedDataDir() + "/rgbd_open3d");
-  ASSERT_GE(seq.size(), 5u);
-  const auto one = realFramesMatcher("obmnet_indoor_frames.pt");
-  const auto searched = realFramesMatcher("obmnet_indoor_frames.pt", 0.0, "xy", 8);
   const Isometry3d A = makeIsometry(
       Eigen::AngleAxisd(75.0 * kDegToRad, Eigen::Vector3d::UnitY()).toRotationMatrix(),
       Eigen::Vector3d(0.3, 0.0, 0.25));
-  int ok_one = 0, ok_search = 0, n = 0;
-  forEachRealFramePair(seq, [&](const PointCloud& s, const PointCloud& t, const Isometry3d& truth) {
-    const PointCloud moved = s.transformed(A, s.frame_id);
-    const Isometry3d truth_moved = truth * A.inverse();  // T_t_s' for s' = A·s
-    const registration::MatchResult a = one.match(moved, t);
-    const registration::MatchResult b = searched.match(moved, t);
-    std::printf("one start %.2f deg %.3f m (confidence %.3f), with the search %.2f deg %.3f m "
-                "(confidence %.3f)\n",
-                rreDeg(a.T_target_source, truth_moved), rte(a.T_target_source, truth_moved),
-                a.network_confidence, rreDeg(b.T_target_source, truth_moved),
-                rte(b.T_target_source, truth_moved), b.network_confidence);
-    auto ok = [&](const registration::MatchResult& r) {
-      return rreDeg(r.T_target_source, truth_moved) < 5.0 &&
-             rte(r.T_target_source, truth_moved) < 0.1;
-    };
-    ok_one += ok(a);
-    ok_search += ok(b);
-    // The guess's own start is among the search matcher's, so its choice is at least as
-    // confident.
-    EXPECT_GE(b.network_confidence, a.network_confidence - 1e-9);
-    ++n;
-  });
-  std::printf("within 5 deg and 0.1 m: one start %d, with the search %d of %d\n", ok_one,
-              ok_search, n);
-  EXPECT_GE(ok_search, 9) << "of " << n;
-  EXPECT_GT(ok_search, ok_one) << "of " << n;
+  const auto c = compareOnMovedRealFrames(
+      realFramesMatcher("obmnet_indoor_frames.pt"),
+      realFramesMatcher("obmnet_indoor_frames.pt", 0.0, "xy", 8), A, "with the search");
+  EXPECT_GE(c.ok_more, 9) << "of " << c.n;
+  EXPECT_GT(c.ok_more, c.ok_one) << "of " << c.n;
 }
 
 }  // namespace obm
