@@ -559,34 +559,54 @@ int main(int argc, char** argv) {
                  "from a right start (the identity row is then that start)");
   std::string search_axis, search_range;
   double search_cell = 0.0;
-  int search_candidates = 8;
-  int search_shifts = 3;
+  double search_step = 0.0;
+  double choice_plane = -1.0;
+  int search_points = 0;
+  int search_candidates = 0;  // 0: by the pairs' kind (below)
+  int search_shifts = 0;
   double search_color = 0.05;
   app.add_option("--search-axis", search_axis,
                  "the turn axis of the search rows (search, search+icp, obmnet+icp+search, "
-                 "obmnet+icp-turns+fgr+search) in the source frame: x, y or z (default: y for "
-                 "rgbd_frames, a camera's vertical; z otherwise)");
+                 "obmnet+icp-turns+fgr+search) in the source frame: x, y or z, or any (every "
+                 "rotation within the range; turns about the source's centroid, translations "
+                 "from where the centroids meet) (default: y for rgbd_frames, a camera's "
+                 "vertical; z for kitti; any for objects and fragments)");
   app.add_option("--search-range", search_range,
                  "DEG,M[,AXIAL]: the search covers headings within ±DEG about --search-axis and "
                  "translations within ±M along each axis, ±AXIAL along the turn axis itself "
-                 "(default: 60,1 for rgbd_frames, 180,20,1 for kitti, else 45,0.5 times --unit)");
+                 "(default: 60,1 for rgbd_frames, 180,20,1 for kitti, else 90,0.3 times --unit)");
+  app.add_option("--search-step", search_step,
+                 "spacing of the search's turns [deg] (default: 3 about one axis, 10 with "
+                 "--search-axis any)")
+      ->check(CLI::PositiveNumber);
   app.add_option("--search-cell", search_cell,
                  "the search's grid cell and translation step, in the pairs' units (default: 1 m "
-                 "for kitti, else the translation range / 10)")
+                 "for kitti, 0.1 times --unit for objects and fragments, else the translation "
+                 "range / 10)")
       ->check(CLI::PositiveNumber);
   app.add_option("--search-shifts", search_shifts,
-                 "translations the search keeps per heading before ranking all its poses")
-      ->check(CLI::PositiveNumber)
-      ->capture_default_str();
+                 "translations the search keeps per heading before ranking all its poses "
+                 "(default: 3 for sensor frames, 1 for objects and fragments)")
+      ->check(CLI::PositiveNumber);
   app.add_option("--search-color", search_color,
                  "grey-level tolerance of the search's occupancy on coloured pairs (0 = off): a "
                  "point on an occupied cell of another grey counts half")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
+  app.add_option("--search-points", search_points,
+                 "source points the search scores (default: 1000 for sensor frames, 300 for "
+                 "objects and fragments, whose search turns over every rotation)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--choice-plane", choice_plane,
+                 "the search rows: starts compete on points within this distance [units of "
+                 "--unit] of the target's tangent planes (ObmNetMatcherParams::"
+                 "choice_plane_distance; search+icp: its inliers within it); 0 = the confidence's "
+                 "inlier threshold (default: 0.01 for object and fragment pairs, else 0)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--search-candidates", search_candidates,
-                 "poses the search hands on to the refinement, best first")
-      ->check(CLI::PositiveNumber)
-      ->capture_default_str();
+                 "poses the search hands on to the refinement, best first (default: 8 for sensor "
+                 "frames, 16 for objects and fragments)")
+      ->check(CLI::PositiveNumber);
   app.add_flag("-q,--quiet", quiet, "no progress bars");
   apps::addLogLevelOption(app, log_level, "warn");
   CLI11_PARSE(app, argc, argv);
@@ -799,9 +819,17 @@ int main(int argc, char** argv) {
     if (overlap_keep > 1.0) throw ConfigError("--overlap-stage must be in [0, 1]");
     // The correlative search of the search rows (registration::correlativeSearch).
     registration::CorrelativeSearchParams search;
-    search.axis = !search_axis.empty() ? search_axis : protocol == "rgbd_frames" ? "y" : "z";
-    search.heading_range_deg = protocol == "rgbd_frames" ? 60.0 : protocol == "kitti" ? 180.0 : 45.0;
-    search.translation_range = protocol == "rgbd_frames" ? 1.0 : protocol == "kitti" ? 20.0 : 0.5 * unit;
+    // Sensor frames (a camera's, a LiDAR's) turn about the sensor's vertical; objects and
+    // fragments, whose pose may be any turn, over every rotation about their centroid.
+    const bool sensor_frames = protocol == "rgbd_frames" || protocol == "kitti";
+    search.axis = !search_axis.empty() ? search_axis
+                  : protocol == "rgbd_frames" ? "y"
+                  : protocol == "kitti"       ? "z"
+                                              : "any";
+    search.align_centroids = search.axis == "any";
+    search.heading_range_deg = protocol == "rgbd_frames" ? 60.0 : protocol == "kitti" ? 180.0 : 90.0;
+    search.heading_step_deg = search_step > 0.0 ? search_step : search.axis == "any" ? 10.0 : 3.0;
+    search.translation_range = protocol == "rgbd_frames" ? 1.0 : protocol == "kitti" ? 20.0 : 0.3 * unit;
     // A LiDAR's sweeps differ little in height (a road's slope over tens of metres).
     if (protocol == "kitti") search.axial_range = 1.0;
     if (!search_range.empty()) {
@@ -814,11 +842,18 @@ int main(int argc, char** argv) {
                           "'");
       search.axial_range = axial;
     }
-    search.cell = search_cell > 0.0 ? search_cell
+    search.cell = search_cell > 0.0     ? search_cell
                   : protocol == "kitti" ? 1.0
+                  : !sensor_frames      ? 0.1 * unit
                                         : search.translation_range / 10.0;
-    search.candidates = search_candidates;
-    search.shifts_per_heading = search_shifts;
+    // Every rotation of an object: more poses near the top (a turn 10° off can score below a
+    // wrong one), each kept only once per turn.
+    search.candidates = search_candidates > 0 ? search_candidates : sensor_frames ? 8 : 16;
+    search.shifts_per_heading = search_shifts > 0 ? search_shifts : sensor_frames ? 3 : 1;
+    search.sample_points = search_points > 0 ? search_points : sensor_frames ? 1000 : 300;
+    // Refined starts of objects converge onto some surface; at the noise's scale (σ = 0.01 of the
+    // jittered protocols) only the right one lies on it (docs/obm-bench.md).
+    if (choice_plane < 0.0) choice_plane = sensor_frames ? 0.0 : 0.01;
     search.seed = seed;
     search.color_tolerance = search_color;
     try {
@@ -947,11 +982,18 @@ int main(int argc, char** argv) {
                              return bench::MethodResult(poses.empty() ? Isometry3d::Identity()
                                                                       : poses.front());
                            }});
-        methods.push_back(searchIcpMethod(objectRefineIcpMatcher(unit, finish), search));
+        // The classical chain chooses by its inliers within the same distance of the planes.
+        auto choice_confidence = objectConfidenceParams(unit, finish);
+        if (choice_plane > 0.0) choice_confidence.inlier_threshold = choice_plane * unit;
+        methods.push_back(searchIcpMethod(
+            std::make_shared<registration::IcpMatcher>(objectRefineIcpParams(unit, finish),
+                                                       choice_confidence),
+            search));
         registration::ObmNetMatcherParams with_search =
             obmnetIcpParams(net, unit, finish, overlap_keep);
         with_search.search = search;
         with_search.search_candidates = search.candidates;
+        with_search.choice_plane_distance = choice_plane * unit;
         methods.push_back(
             matcherMethod("obmnet+icp+search", obmnetIcpMatcher(with_search, unit, finish)));
       }
@@ -986,6 +1028,7 @@ int main(int argc, char** argv) {
                   obmnetIcpParams(net_t, unit, finish, overlap_keep);
               turns_search.search = search;
               turns_search.search_candidates = search.candidates;
+              turns_search.choice_plane_distance = choice_plane * unit;
               methods.push_back(globalStartMethod("obmnet+icp-turns+fgr+search",
                                                   obmnetIcpMatcher(turns_search, unit, finish),
                                                   from_fgr, m));

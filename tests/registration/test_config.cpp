@@ -141,6 +141,12 @@ TEST(RegistrationConfig, ErrorsNameFileAndKey) {
   expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, search: {axis: w}}",
                     "obmnet.search");
   expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, search: {cells: 1}}", "cells");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, choice_plane_distance: -1}",
+                    "obmnet.choice_plane_distance");
+  // Every rotation on a grid too fine to search.
+  expectConfigError(
+      "type: obmnet+icp\nobmnet: {model_path: m.pt, search: {axis: any, heading_step_deg: 1}}",
+      "obmnet.search");
   expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, ransac_candidates: 5}",
                     "obmnet.ransac_candidates");
   expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, ransac_inlier_spacing: 0}",
@@ -165,12 +171,15 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
       "ransac_candidates: 2, ransac_inlier_spacing: 1.5, ransac_max_turn_deg: 30, "
       "select_by_consensus: false, spatial_sigma: 0.05, start_turn_deg: 25, start_turn_axes: zx, "
       "search_candidates: 3, search: {axis: y, heading_range_deg: 90, translation_range: 2, "
-      "cell: 0.2}}"));
+      "cell: 0.2, align_centroids: true}, choice_plane_distance: 0.02}"));
   EXPECT_EQ(s.obmnet.search_candidates, 3);
   EXPECT_EQ(s.obmnet.search.axis, "y");
   EXPECT_DOUBLE_EQ(s.obmnet.search.heading_range_deg, 90.0);
   EXPECT_DOUBLE_EQ(s.obmnet.search.translation_range, 2.0);
   EXPECT_DOUBLE_EQ(s.obmnet.search.cell, 0.2);
+  EXPECT_TRUE(s.obmnet.search.align_centroids);
+  EXPECT_DOUBLE_EQ(s.obmnet.choice_plane_distance, 0.02);
+  EXPECT_DOUBLE_EQ(c.obmnet.choice_plane_distance, 0.0);  // the shipped YAML: off
   EXPECT_EQ(c.obmnet.search_candidates, 0);  // the shipped YAML: no search
   EXPECT_EQ(c.obmnet.search.axis, "z");
   // ... and otherwise the search's defaults, as the YAML's comments say.
@@ -181,6 +190,7 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
   EXPECT_DOUBLE_EQ(c.obmnet.search.heading_step_deg, d.heading_step_deg);
   EXPECT_DOUBLE_EQ(c.obmnet.search.translation_range, d.translation_range);
   EXPECT_DOUBLE_EQ(c.obmnet.search.axial_range, d.axial_range);
+  EXPECT_EQ(c.obmnet.search.align_centroids, d.align_centroids);
   EXPECT_DOUBLE_EQ(c.obmnet.search.cell, d.cell);
   EXPECT_EQ(c.obmnet.search.sample_points, d.sample_points);
   EXPECT_EQ(c.obmnet.search.shifts_per_heading, d.shifts_per_heading);

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 
 #include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
@@ -145,6 +146,93 @@ TEST(CorrelativeSearch, CandidatesAreRankedAndApartAndDeterministic) {
   ASSERT_FALSE(from_guess.empty());
   EXPECT_LE(std::abs(from_guess.front().heading_deg), 2.0);
   EXPECT_TRUE(registration::correlativeSearch(PointCloud(), pair.target, p).empty());
+}
+
+/// An object of about a unit's size, three boxes in an L with a post (no symmetry), sampled twice
+/// on its own (no shared point); the source is the second sampling turned by 60° about an oblique
+/// axis, moved 1.1 units, cut to the part with x > −0.2 in the object's frame and jittered.
+struct TurnedObjectPair {
+  Isometry3d T_target_source;
+  PointCloud target, source;
+  static PointCloud object(std::uint64_t seed) {
+    std::mt19937_64 rng(seed);
+    PointCloud c;
+    test::sampleBox(c, {-0.6f, -0.3f, -0.2f}, {0.6f, 0.0f, 0.1f}, 1200.0, rng);
+    test::sampleBox(c, {0.3f, 0.0f, -0.2f}, {0.6f, 0.5f, 0.1f}, 1200.0, rng);
+    test::sampleBox(c, {-0.5f, -0.25f, 0.1f}, {-0.35f, -0.1f, 0.6f}, 1200.0, rng);
+    c.frame_id = "target";
+    return c;
+  }
+  TurnedObjectPair() {
+    T_target_source = makeIsometry(
+        Eigen::AngleAxisd(60.0 * kDegToRad, Eigen::Vector3d(1.0, 2.0, -1.0).normalized())
+            .toRotationMatrix(),
+        Eigen::Vector3d(0.8, -0.6, 0.45));
+    target = object(1);
+    PointCloud cut;
+    for (const auto& p : object(2).points)
+      if (p.x() > -0.2f) cut.push_back(p);
+    source = test::makeSource(cut, T_target_source, 1.0, 0.005, 3);
+  }
+};
+
+registration::CorrelativeSearchParams objectSearch() {
+  registration::CorrelativeSearchParams p;
+  p.axis = "any";
+  p.align_centroids = true;
+  p.heading_range_deg = 90.0;
+  p.heading_step_deg = 10.0;
+  p.translation_range = 0.3;
+  p.cell = 0.1;
+  p.sample_points = 300;
+  p.shifts_per_heading = 1;
+  p.candidates = 8;
+  return p;
+}
+
+TEST(CorrelativeSearch, EveryRotationAboutTheCentroidsFindsAnObjectTurnedObliquely) {
+  const TurnedObjectPair pair;
+  const auto p = objectSearch();
+  const auto hits = registration::correlativeSearch(pair.source, pair.target, p);
+  ASSERT_EQ(hits.size(), 8u);
+  // ICP from each of the search's poses; the one with the most points on the target's surface
+  // (within 1 cm of its tangent planes) is the pair's pose. From the identity ICP fails.
+  registration::IcpParams icp;
+  icp.normal_neighbors = 10;
+  icp.initial_max_correspondence_distance = 0.1;
+  icp.max_correspondence_distance = 0.1;
+  icp.kernel_scale = 0.02;
+  registration::ConfidenceParams tight;
+  tight.inlier_threshold = 0.01;
+  const registration::IcpMatcher matcher(icp, tight);
+  registration::MatchResult best;
+  double nearest_start = 180.0;
+  for (const auto& h : hits) {
+    // Every pose turns about one axis by up to the range, on the grid's steps.
+    EXPECT_LE(h.heading_deg, p.heading_range_deg + 1e-9);
+    nearest_start =
+        std::min(nearest_start, test::poseError(h.T_target_source, pair.T_target_source).second);
+    auto r = matcher.match(pair.source, pair.target, h.T_target_source);
+    if (r.inlier_ratio > best.inlier_ratio) best = r;
+  }
+  // The grid's steps of 10° leave at most 8.7° (half a cube's diagonal) to the nearest turn.
+  EXPECT_LT(nearest_start, 9.0);
+  const auto [bt, br] = test::poseError(best.T_target_source, pair.T_target_source);
+  EXPECT_LT(br, 1.0);
+  EXPECT_LT(bt, 0.01);
+  const auto from_identity = matcher.match(pair.source, pair.target, Isometry3d::Identity());
+  const auto [it, ir] = test::poseError(from_identity.T_target_source, pair.T_target_source);
+  EXPECT_GT(ir + 10.0 * it, 5.0) << "ICP alone registered the pair: the test shows nothing";
+  // About the source's origin with translations around the identity, the 1.1-unit move is out
+  // of the 0.3 range: no pose is near.
+  auto origin = p;
+  origin.align_centroids = false;
+  for (const auto& h : registration::correlativeSearch(pair.source, pair.target, origin))
+    EXPECT_GT(test::poseError(h.T_target_source, pair.T_target_source).first, 0.3);
+  // A grid of every rotation refuses a runaway count.
+  auto fine = p;
+  fine.heading_step_deg = 5.0;
+  EXPECT_THROW(fine.validate(), ConfigError);
 }
 
 TEST(CorrelativeSearch, RejectsBadSettingsByName) {

@@ -16,14 +16,18 @@
 namespace obm::registration {
 
 void CorrelativeSearchParams::validate() const {
-  if (axis != "x" && axis != "y" && axis != "z")
-    throw ConfigError("correlative search: axis must be x, y or z, not '" + axis + "'");
+  if (axis != "x" && axis != "y" && axis != "z" && axis != "any")
+    throw ConfigError("correlative search: axis must be x, y, z or any, not '" + axis + "'");
   if (!(max_tilt_deg >= 0.0 && max_tilt_deg < 90.0))
     throw ConfigError("correlative search: max_tilt_deg must be in [0, 90)");
   if (!(heading_range_deg >= 0.0 && heading_range_deg <= 180.0))
     throw ConfigError("correlative search: heading_range_deg must be in [0, 180]");
   if (!(heading_step_deg > 0.0))
     throw ConfigError("correlative search: heading_step_deg must be > 0");
+  // Every rotation: (2·range/step + 1)³ grid points, about half of them within the range.
+  if (axis == "any" && heading_range_deg / heading_step_deg > 15.0)
+    throw ConfigError("correlative search: with axis any, heading_range_deg / heading_step_deg "
+                      "must be <= 15 (about 14 000 rotations)");
   if (!(translation_range >= 0.0))
     throw ConfigError("correlative search: translation_range must be >= 0");
   if (!(axial_range >= 0.0 || axial_range == -1.0))
@@ -47,7 +51,7 @@ void CorrelativeSearchParams::validate() const {
 CorrelativeSearchParams CorrelativeSearchParams::load(const ConfigNode& node) {
   CorrelativeSearchParams p;
   node.checkKeys({"axis", "axis_from_floor", "max_tilt_deg", "heading_range_deg",
-                  "heading_step_deg", "translation_range", "axial_range", "cell",
+                  "heading_step_deg", "translation_range", "axial_range", "align_centroids", "cell",
                   "sample_points", "candidates", "shifts_per_heading", "min_separation_deg",
                   "min_separation_m", "color_tolerance", "seed"});
   node.get("axis", p.axis);
@@ -57,6 +61,7 @@ CorrelativeSearchParams CorrelativeSearchParams::load(const ConfigNode& node) {
   node.get("heading_step_deg", p.heading_step_deg);
   node.get("translation_range", p.translation_range);
   node.get("axial_range", p.axial_range);
+  node.get("align_centroids", p.align_centroids);
   node.get("cell", p.cell);
   node.get("sample_points", p.sample_points);
   node.get("candidates", p.candidates);
@@ -291,9 +296,10 @@ std::vector<SearchHit> correlativeSearch(const PointCloud& source, const PointCl
   // The fine field: half the cell, reaching one coarse cell around each heading's best shift.
   const OccupancyField fine(target.points, 0.5 * params.cell, 2 * (reach + 2),
                             coloured ? &target_grey : nullptr);
+  const bool any_rotation = params.axis == "any";
   const int axis_index = params.axis == "x" ? 0 : params.axis == "y" ? 1 : 2;
   Eigen::Vector3d axis = Eigen::Vector3d::Unit(axis_index);
-  if (params.axis_from_floor) {
+  if (params.axis_from_floor && !any_rotation) {
     // The floor's normal in the target frame, back to the source frame by the guess's rotation.
     const Eigen::Matrix3d R_init = T_target_source_init.linear();
     if (const auto up =
@@ -302,16 +308,43 @@ std::vector<SearchHit> correlativeSearch(const PointCloud& source, const PointCl
   }
   // Shifts per axis [coarse cells]: `reach` across the axis, less along it when asked.
   std::array<int, 3> span{reach, reach, reach};
-  if (params.axial_range >= 0.0)
+  if (params.axial_range >= 0.0 && !any_rotation)
     span[static_cast<std::size_t>(axis_index)] =
         std::min(reach, static_cast<int>(std::lround(params.axial_range / params.cell)));
+  // The turns: headings about the axis, or every rotation vector of a cubic grid within the
+  // range (a rotation vector's length is its angle, so the grid covers the ball of turns).
   const int steps = static_cast<int>(std::floor(params.heading_range_deg / params.heading_step_deg));
+  std::vector<Eigen::Vector3d> turns;  // rotation vectors [deg]
+  if (!any_rotation) {
+    for (int h = -steps; h <= steps; ++h) turns.push_back(h * params.heading_step_deg * axis);
+  } else {
+    for (int i = -steps; i <= steps; ++i)
+      for (int j = -steps; j <= steps; ++j)
+        for (int k = -steps; k <= steps; ++k) {
+          const Eigen::Vector3d v = params.heading_step_deg * Eigen::Vector3d(i, j, k);
+          if (v.norm() <= params.heading_range_deg + 1e-9) turns.push_back(v);
+        }
+  }
+  // With align_centroids: turns about the source's centroid, translations from where the
+  // centroids meet.
+  Eigen::Vector3d c_source = Eigen::Vector3d::Zero(), c_target = Eigen::Vector3d::Zero();
+  if (params.align_centroids) {
+    for (const auto& q : source.points) c_source += q.cast<double>();
+    for (const auto& q : target.points) c_target += q.cast<double>();
+    c_source /= static_cast<double>(source.size());
+    c_target /= static_cast<double>(target.size());
+  }
   std::vector<SearchHit> all;
-  for (int h = -steps; h <= steps; ++h) {
-    const double deg = h * params.heading_step_deg;
+  for (const Eigen::Vector3d& rv : turns) {
+    const double deg = rv.norm();
+    const Eigen::Vector3d turn_axis = deg > 0.0 ? Eigen::Vector3d(rv / deg) : axis;
+    // Signed heading about the axis for the single-axis search (its grid runs through −range).
+    const double heading = any_rotation ? deg : rv.dot(axis);
     Isometry3d turn = Isometry3d::Identity();
-    turn.linear() = Eigen::AngleAxisd(deg * M_PI / 180.0, axis).toRotationMatrix();
-    const Isometry3d T0 = T_target_source_init * turn;
+    turn.linear() = Eigen::AngleAxisd(deg * M_PI / 180.0, turn_axis).toRotationMatrix();
+    if (params.align_centroids) turn.translation() = c_source - turn.linear() * c_source;
+    Isometry3d T0 = T_target_source_init * turn;
+    if (params.align_centroids) T0.translation() += c_target - T0 * c_source;
     std::vector<Eigen::Vector3d> pts(n);
     for (std::size_t i = 0; i < n; ++i) pts[i] = T0 * source.points[idx[i]].cast<double>();
     // Coarse: every shift of the grid. A shift by whole cells moves each point's cell by the
@@ -358,8 +391,8 @@ std::vector<SearchHit> correlativeSearch(const PointCloud& source, const PointCl
             }
           }
       SearchHit hit;
-      hit.heading_deg = deg;
-      hit.axis = axis;
+      hit.heading_deg = heading;
+      hit.axis = any_rotation ? turn_axis : axis;
       hit.T_target_source = T0;
       hit.T_target_source.translation() +=
           fine.cell * Eigen::Vector3d(fshift[0], fshift[1], fshift[2]);
@@ -373,7 +406,12 @@ std::vector<SearchHit> correlativeSearch(const PointCloud& source, const PointCl
   for (const auto& h : all) {
     if (static_cast<int>(out.size()) >= params.candidates) break;
     const bool apart = std::all_of(out.begin(), out.end(), [&](const SearchHit& o) {
-      return std::abs(o.heading_deg - h.heading_deg) >= params.min_separation_deg ||
+      // The angle between the two rotations (about one axis: the heading difference).
+      const double turn_deg =
+          Eigen::AngleAxisd(o.T_target_source.linear().transpose() * h.T_target_source.linear())
+              .angle() *
+          180.0 / M_PI;
+      return turn_deg >= params.min_separation_deg - 1e-6 ||
              (o.T_target_source.translation() - h.T_target_source.translation()).norm() >=
                  params.min_separation_m;
     });

@@ -35,7 +35,8 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
                   "ransac_max_turn_deg",
                   "select_by_consensus",
                   "search_candidates",
-                  "search"});
+                  "search",
+                  "choice_plane_distance"});
   p.model_path = node.required<std::string>("model_path");
   node.get("num_points", p.num_points);
   node.get("threads", p.threads);
@@ -86,6 +87,9 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   if (p.search_candidates < 0)
     throw ConfigError(node.where("search_candidates") + ": must be >= 0 (0 = off)");
   if (node.has("search")) p.search = CorrelativeSearchParams::load(node.child("search"));
+  node.get("choice_plane_distance", p.choice_plane_distance);
+  if (!(p.choice_plane_distance >= 0.0))
+    throw ConfigError(node.where("choice_plane_distance") + ": must be >= 0 (0 = off)");
   node.get("start_turn_axes", p.start_turn_axes);
   if (const std::string why = startTurnAxesError(p.start_turn_axes); !why.empty())
     throw ConfigError(node.where("start_turn_axes") + ": " + why);

@@ -141,10 +141,12 @@ NetworkStage runNetwork(const obmnet::ObmNetRegistrar& reg, const ObmNetMatcherP
 /// MatchResult::network_confidence: the share of the network's SVD weight on sampled source
 /// points that have a target point within the inlier threshold at `T_target_source` (and, on
 /// coloured pairs with ConfidenceParams::color_inlier_threshold, whose grey residual there is
-/// within that: evaluateAlignment's inliers, on the network's points).
+/// within that: evaluateAlignment's inliers, on the network's points). With `plane_distance` > 0
+/// a point must also lie within it of its nearest target point's tangent plane (of the point
+/// itself where the normal is not trusted): ObmNetMatcherParams::choice_plane_distance.
 double biasWeightedConfidence(const NetworkStage& net, const PreparedTarget& target,
                               const Isometry3d& T_target_source, const IcpParams& icp,
-                              const ConfidenceParams& confidence) {
+                              const ConfidenceParams& confidence, double plane_distance = 0.0) {
   const Eigen::Matrix3f R = T_target_source.linear().cast<float>();
   const Eigen::Vector3f t = T_target_source.translation().cast<float>();
   const bool color = colorInliersApply(icp, confidence, target,
@@ -161,6 +163,12 @@ double biasWeightedConfidence(const NetworkStage& net, const PreparedTarget& tar
     if (color && std::abs(target.colorResidual(idx, x.cast<double>(), net.sampled_grey[i])) >
                      confidence.color_inlier_threshold)
       continue;
+    if (plane_distance > 0.0) {
+      const Eigen::Vector3f d = x - target.cloud().points[idx];
+      const float off = target.normalValid()[idx] ? std::abs(target.normals()[idx].dot(d))
+                                                  : d.norm();
+      if (off > plane_distance) continue;
+    }
     num += w;
   }
   return den > 0.0 ? num / den : 0.0;
@@ -240,6 +248,8 @@ ObmNetIcpMatcher::ObmNetIcpMatcher(const ObmNetMatcherParams& params, const IcpP
   if (params.search_candidates < 0)
     throw ConfigError("obmnet matcher: search_candidates must be >= 0 (0 = off)");
   if (params.search_candidates > 0) params.search.validate();
+  if (!(params.choice_plane_distance >= 0.0))
+    throw ConfigError("obmnet matcher: choice_plane_distance must be >= 0 (0 = off)");
   impl_.reset(new Impl{params, makeRegistrar(params)});
 }
 
@@ -395,7 +405,8 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
   // better than ICP's counts (docs/registration.md).
   auto score = [&](const Refinement& r) {
     if (!r.net.ok || r.result.status == MatchStatus::TooFewCorrespondences) return -1.0;
-    return biasWeightedConfidence(r.net, target, r.result.T_target_source, icp_, confidence_);
+    return biasWeightedConfidence(r.net, target, r.result.T_target_source, icp_, confidence_,
+                                  p.choice_plane_distance);
   };
   double best_score = p.start_turn_deg > 0.0 || p.search_candidates > 0 ? score(best) : -1.0;
   const NetworkStage first_net = p.search_candidates > 0 ? best.net : NetworkStage();

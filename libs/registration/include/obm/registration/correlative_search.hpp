@@ -26,20 +26,28 @@ namespace obm::registration {
 /// Settings of correlativeSearch (YAML keys of the same names).
 struct CorrelativeSearchParams {
   /// The turn axis in the source frame: "x", "y" or "z" (a camera frame's vertical is y, a
-  /// LiDAR's z).
+  /// LiDAR's z), or "any": every rotation within `heading_range_deg` of the guess, on a grid of
+  /// rotation vectors `heading_step_deg` apart (objects seen from anywhere; about 4/3·π·(range /
+  /// step)³ rotations, so a coarser step than about one axis).
   std::string axis = "y";
   /// Take the turn axis from the target's floor (or ceiling, or road) instead: the mean normal
   /// of the target's planar patches within `max_tilt_deg` of `axis` (mapped to the source frame
   /// by the guess). A camera looking down turns about the room's vertical, not about its own y;
-  /// without enough such patches `axis` itself is used.
+  /// without enough such patches `axis` itself is used. Not with axis "any".
   bool axis_from_floor = true;
   double max_tilt_deg = 30.0;  ///< [deg] how far the floor's normal may lie from `axis`
-  double heading_range_deg = 60.0;  ///< headings in [−range, +range] about `axis`
+  /// [deg] headings in [−range, +range] about `axis` (axis "any": turns of up to range)
+  double heading_range_deg = 60.0;
   double heading_step_deg = 3.0;    ///< spacing of the headings
   double translation_range = 1.0;   ///< [m] translations in [−range, +range] along each axis
   /// [m] the range along `axis` itself (−1 = translation_range): a level sensor moves little
-  /// along its vertical, and each cell less there divides the search's cost.
+  /// along its vertical, and each cell less there divides the search's cost. Not with axis "any".
   double axial_range = -1.0;
+  /// Turn the source about its centroid and centre the translations where the two centroids
+  /// meet, instead of turning about the source's origin and centring them on the guess: for
+  /// clouds whose origin is not their sensor's (objects, fragments), where a turn about the
+  /// origin would swing the cloud away and the translation range would have to cover that.
+  bool align_centroids = false;
   /// [m] the coarse grid's cell, also the step of the translations; the best translation of each
   /// heading is then refined on a grid of half this cell.
   double cell = 0.1;
@@ -67,7 +75,8 @@ struct CorrelativeSearchParams {
 struct SearchHit {
   Isometry3d T_target_source = Isometry3d::Identity();
   double heading_deg = 0.0;  ///< the turn about the axis, relative to T_init
-  /// The turn axis in the source frame (CorrelativeSearchParams::axis, or the floor's normal).
+  /// The turn axis in the source frame (CorrelativeSearchParams::axis, or the floor's normal;
+  /// with axis "any" the axis of this pose's turn, heading_deg its angle).
   Eigen::Vector3d axis = Eigen::Vector3d::UnitY();
   /// Share of the scored source points in an occupied target cell (1 per point in an occupied
   /// fine cell, ½ in a cell next to one or, with colour_tolerance, in an occupied cell of another
@@ -85,9 +94,11 @@ std::optional<Eigen::Vector3d> floorNormal(const std::vector<Vector3f>& points, 
 
 /// Searches T = Δ(θ, t) · T_init over the headings θ about `params.axis` of the source frame
 /// (turns about the source origin, composed before T_init: T = T_init · [R_axis(θ) | 0], then
-/// shifted by t in the target frame) and the translations t, and returns up to
-/// `params.candidates` poses, best score first, pairwise separated by the minimum heading or
-/// translation. Empty when either cloud is empty. Deterministic for a seed.
+/// shifted by t in the target frame; with `align_centroids` turns about the source's centroid,
+/// shifted by t from where the centroids meet) and the translations t, and returns up to
+/// `params.candidates` poses, best score first, pairwise separated by the minimum turn (the angle
+/// between their rotations) or translation. Empty when either cloud is empty. Deterministic for
+/// a seed.
 std::vector<SearchHit> correlativeSearch(const PointCloud& source, const PointCloud& target,
                                          const CorrelativeSearchParams& params,
                                          const Isometry3d& T_target_source_init =

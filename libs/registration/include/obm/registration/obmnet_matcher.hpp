@@ -111,6 +111,14 @@ struct ObmNetMatcherParams {
   /// Each pose costs one ICP.
   int search_candidates = 0;
   CorrelativeSearchParams search;  ///< YAML `search:`; its `candidates` is search_candidates
+  /// [m] ObmNetIcpMatcher with start turns or the search: when > 0, the starts' refinements
+  /// compete on the bias-weighted confidence counted on the target's surface, a network point
+  /// landing when it is also within this distance of its nearest target point's tangent plane
+  /// (the whole distance where that normal is not trusted), instead of within the confidence's
+  /// inlier threshold alone (0). Every refinement converges onto some surface; at the noise's
+  /// scale only the right one lies on it (docs/registration.md, "Correlative search"). The
+  /// returned confidence is always the usual one.
+  double choice_plane_distance = 0.0;
 
   /// Reads the keys of `node` (model_path required; unknown keys rejected). A relative
   /// model_path is resolved against the folder of the YAML file.
