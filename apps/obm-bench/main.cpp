@@ -605,7 +605,7 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_option("--search-candidates", search_candidates,
                  "poses the search hands on to the refinement, best first (default: 8 for sensor "
-                 "frames, 16 for objects and fragments)")
+                 "frames, 32 for objects and fragments)")
       ->check(CLI::PositiveNumber);
   app.add_flag("-q,--quiet", quiet, "no progress bars");
   apps::addLogLevelOption(app, log_level, "warn");
@@ -847,9 +847,12 @@ int main(int argc, char** argv) {
                   : !sensor_frames      ? 0.1 * unit
                                         : search.translation_range / 10.0;
     // Every rotation of an object: more poses near the top (a turn 10° off can score below a
-    // wrong one), each kept only once per turn.
-    search.candidates = search_candidates > 0 ? search_candidates : sensor_frames ? 8 : 16;
+    // wrong one), one translation per turn.
+    search.candidates = search_candidates > 0 ? search_candidates : sensor_frames ? 8 : 32;
     search.shifts_per_heading = search_shifts > 0 ? search_shifts : sensor_frames ? 3 : 1;
+    // The turns of every rotation lie 10° apart: poses handed on 25° apart, so that they are not
+    // the neighbours of one wrong maximum (ICP from one reaches its neighbours' poses).
+    if (search.axis == "any") search.min_separation_deg = 25.0;
     search.sample_points = search_points > 0 ? search_points : sensor_frames ? 1000 : 300;
     // Refined starts of objects converge onto some surface; at the noise's scale (σ = 0.01 of the
     // jittered protocols) only the right one lies on it (docs/obm-bench.md).

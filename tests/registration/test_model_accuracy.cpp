@@ -186,9 +186,9 @@ TEST(ModelAccuracy, EdgeNormalsModelOnIndependentSamplingsOfUnseenObjects) {
 TEST(ModelAccuracy, SearchOverEveryRotationRegistersLowOverlapObjectPairs) {
   // partial_noise pairs (shared samples, σ = 0.01, crops) of the unseen objects below 0.6
   // overlap, where the network's start is what is missing (docs/benchmarks.md, "Every rotation
-  // for objects"): the matcher of obm-bench's obmnet+icp, then with 16 poses of a search over
-  // every rotation (±90° in steps of 10°, ±0.3 around the centroids) chosen on the target's
-  // tangent planes at 1 cm.
+  // for objects"): the matcher of obm-bench's obmnet+icp, then with 32 poses (25° apart) of a
+  // search over every rotation (±90° in steps of 10°, ±0.3 around the centroids) chosen on the
+  // target's tangent planes at 1 cm.
   const auto objects = cgalObjectSet(1024);
   if (!objects) GTEST_SKIP() << "OBM_CGAL_DATA not set (scripts/get_cgal_meshes.sh)";
   const auto proto = obmnet::PairProtocol::preset("partial_noise");
@@ -218,7 +218,8 @@ TEST(ModelAccuracy, SearchOverEveryRotationRegistersLowOverlapObjectPairs) {
   auto p = netParams(kModels + "obmnet_objects_normals.pt");
   p.overlap_stage_keep = 0.5;
   const registration::ObmNetIcpMatcher plain(p, icp, conf);
-  p.search_candidates = 16;
+  p.search_candidates = 32;
+  p.search.min_separation_deg = 25.0;
   p.search.axis = "any";
   p.search.align_centroids = true;
   p.search.heading_range_deg = 90.0;
@@ -245,8 +246,8 @@ TEST(ModelAccuracy, SearchOverEveryRotationRegistersLowOverlapObjectPairs) {
                 rreDeg(b.T_target_source, pair.T_target_source));
   }
   std::printf("registered (RRE < 1 deg, RTE < 0.1): %d -> %d of 8\n", ok_plain, ok_search);
-  // Measured: 2 -> 5 of 8 (blobby_3cc, elk, homer gained; cylinder, turned about its own axis,
-  // itemb and knot lost by both).
+  // Measured: 2 -> 5 of 8 (blobby_3cc, elk, homer gained; cylinder, whose turns about its own
+  // axis fit alike, itemb and knot lost by both).
   EXPECT_GE(ok_search, ok_plain + 2);
   EXPECT_GE(ok_search, 5);
 }
