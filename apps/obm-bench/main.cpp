@@ -576,7 +576,7 @@ int main(int argc, char** argv) {
                  "translations within ±M along each axis, ±AXIAL along the turn axis itself "
                  "(default: 60,1 for rgbd_frames, 180,20,1 for kitti, else 90,0.3 times --unit)");
   app.add_option("--search-step", search_step,
-                 "spacing of the search's turns [deg] (default: 3 about one axis, 10 with "
+                 "spacing of the search's turns [deg] (default: 3 about one axis, 7.5 with "
                  "--search-axis any)")
       ->check(CLI::PositiveNumber);
   app.add_option("--search-cell", search_cell,
@@ -828,7 +828,7 @@ int main(int argc, char** argv) {
                                               : "any";
     search.align_centroids = search.axis == "any";
     search.heading_range_deg = protocol == "rgbd_frames" ? 60.0 : protocol == "kitti" ? 180.0 : 90.0;
-    search.heading_step_deg = search_step > 0.0 ? search_step : search.axis == "any" ? 10.0 : 3.0;
+    search.heading_step_deg = search_step > 0.0 ? search_step : search.axis == "any" ? 7.5 : 3.0;
     search.translation_range = protocol == "rgbd_frames" ? 1.0 : protocol == "kitti" ? 20.0 : 0.3 * unit;
     // A LiDAR's sweeps differ little in height (a road's slope over tens of metres).
     if (protocol == "kitti") search.axial_range = 1.0;
@@ -850,8 +850,8 @@ int main(int argc, char** argv) {
     // wrong one), one translation per turn.
     search.candidates = search_candidates > 0 ? search_candidates : sensor_frames ? 8 : 32;
     search.shifts_per_heading = search_shifts > 0 ? search_shifts : sensor_frames ? 3 : 1;
-    // The turns of every rotation lie 10° apart: poses handed on 25° apart, so that they are not
-    // the neighbours of one wrong maximum (ICP from one reaches its neighbours' poses).
+    // The turns of every rotation lie 7.5° apart: poses handed on 25° apart, so that they are
+    // not the neighbours of one wrong maximum (ICP from one reaches its neighbours' poses).
     if (search.axis == "any") search.min_separation_deg = 25.0;
     search.sample_points = search_points > 0 ? search_points : sensor_frames ? 1000 : 300;
     // Refined starts of objects converge onto some surface; at the noise's scale (σ = 0.01 of the

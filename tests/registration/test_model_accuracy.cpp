@@ -187,7 +187,7 @@ TEST(ModelAccuracy, SearchOverEveryRotationRegistersLowOverlapObjectPairs) {
   // partial_noise pairs (shared samples, σ = 0.01, crops) of the unseen objects below 0.6
   // overlap, where the network's start is what is missing (docs/benchmarks.md, "Every rotation
   // for objects"): the matcher of obm-bench's obmnet+icp, then with 32 poses (25° apart) of a
-  // search over every rotation (±90° in steps of 10°, ±0.3 around the centroids) chosen on the
+  // search over every rotation (±90° in steps of 7.5°, ±0.3 around the centroids) chosen on the
   // target's tangent planes at 1 cm.
   const auto objects = cgalObjectSet(1024);
   if (!objects) GTEST_SKIP() << "OBM_CGAL_DATA not set (scripts/get_cgal_meshes.sh)";
@@ -223,7 +223,7 @@ TEST(ModelAccuracy, SearchOverEveryRotationRegistersLowOverlapObjectPairs) {
   p.search.axis = "any";
   p.search.align_centroids = true;
   p.search.heading_range_deg = 90.0;
-  p.search.heading_step_deg = 10.0;
+  p.search.heading_step_deg = 7.5;
   p.search.translation_range = 0.3;
   p.search.cell = 0.1;
   p.search.sample_points = 300;
