@@ -8,6 +8,7 @@
 
 #include "obm/core/point_cloud.hpp"
 #include "obm/core/se3.hpp"
+#include "obm/registration/correlative_search.hpp"
 #include "obm/registration/params.hpp"
 
 namespace obm::test {
@@ -135,6 +136,37 @@ inline registration::IcpParams wallParams() {
   p.kernel_scale = 0.01;
   p.max_iterations = 60;
   p.min_planarity = 0.0;
+  return p;
+}
+
+/// The refinement of obm-bench's `obmnet+icp` for objects of the unit sphere: 0.1 gate from the
+/// start, Huber 0.02, PCA normals of 10 neighbours, up to 60 iterations (no polish).
+inline registration::IcpParams unitObjectIcp() {
+  registration::IcpParams p;
+  p.initial_max_correspondence_distance = 0.1;
+  p.max_correspondence_distance = 0.1;
+  p.kernel_scale = 0.02;
+  p.normal_neighbors = 10;
+  p.max_iterations = 60;
+  p.min_correspondences = 20;
+  p.threads = 1;
+  return p;
+}
+
+/// obm-bench's search over every rotation for objects of the unit sphere (turns within 90° about
+/// the centroids, ±0.3 around where they meet, 0.1 cells, 300 scored points, one shift per
+/// turn), with the turns `step_deg` apart and `candidates` poses handed on.
+inline registration::CorrelativeSearchParams unitObjectSearch(double step_deg, int candidates) {
+  registration::CorrelativeSearchParams p;
+  p.axis = "any";
+  p.align_centroids = true;
+  p.heading_range_deg = 90.0;
+  p.heading_step_deg = step_deg;
+  p.translation_range = 0.3;
+  p.cell = 0.1;
+  p.sample_points = 300;
+  p.shifts_per_heading = 1;
+  p.candidates = candidates;
   return p;
 }
 

@@ -176,35 +176,16 @@ struct TurnedObjectPair {
   }
 };
 
-registration::CorrelativeSearchParams objectSearch() {
-  registration::CorrelativeSearchParams p;
-  p.axis = "any";
-  p.align_centroids = true;
-  p.heading_range_deg = 90.0;
-  p.heading_step_deg = 10.0;
-  p.translation_range = 0.3;
-  p.cell = 0.1;
-  p.sample_points = 300;
-  p.shifts_per_heading = 1;
-  p.candidates = 8;
-  return p;
-}
-
 TEST(CorrelativeSearch, EveryRotationAboutTheCentroidsFindsAnObjectTurnedObliquely) {
   const TurnedObjectPair pair;
-  const auto p = objectSearch();
+  const auto p = test::unitObjectSearch(10.0, 8);
   const auto hits = registration::correlativeSearch(pair.source, pair.target, p);
   ASSERT_EQ(hits.size(), 8u);
   // ICP from each of the search's poses; the one with the most points on the target's surface
   // (within 1 cm of its tangent planes) is the pair's pose. From the identity ICP fails.
-  registration::IcpParams icp;
-  icp.normal_neighbors = 10;
-  icp.initial_max_correspondence_distance = 0.1;
-  icp.max_correspondence_distance = 0.1;
-  icp.kernel_scale = 0.02;
   registration::ConfidenceParams tight;
   tight.inlier_threshold = 0.01;
-  const registration::IcpMatcher matcher(icp, tight);
+  const registration::IcpMatcher matcher(test::unitObjectIcp(), tight);
   registration::MatchResult best;
   double nearest_start = 180.0;
   for (const auto& h : hits) {

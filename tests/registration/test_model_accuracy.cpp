@@ -39,6 +39,7 @@
 #include "obm/sim/lidar.hpp"
 #include "obm/sim/scene.hpp"
 #include "obm/sim/simulator.hpp"
+#include "scenes.hpp"
 #include "test_data.hpp"
 
 namespace obm {
@@ -203,15 +204,9 @@ TEST(ModelAccuracy, SearchOverEveryRotationRegistersLowOverlapObjectPairs) {
     names.push_back(object.frame_id);
   }
   ASSERT_EQ(pairs.size(), 8u);
-  registration::IcpParams icp;  // obm-bench's refinement of the unit-sphere objects
-  icp.initial_max_correspondence_distance = 0.1;
-  icp.max_correspondence_distance = 0.1;
-  icp.kernel_scale = 0.02;
+  // obm-bench's refinement of the unit-sphere objects, with its polish of shared-sample pairs.
+  registration::IcpParams icp = test::unitObjectIcp();
   icp.polish_max_correspondence_distance = 0.05;
-  icp.normal_neighbors = 10;
-  icp.max_iterations = 60;
-  icp.min_correspondences = 20;
-  icp.threads = 1;
   registration::ConfidenceParams conf;
   conf.inlier_threshold = 0.05;
   conf.min_sigma = 0.001;
@@ -219,15 +214,8 @@ TEST(ModelAccuracy, SearchOverEveryRotationRegistersLowOverlapObjectPairs) {
   p.overlap_stage_keep = 0.5;
   const registration::ObmNetIcpMatcher plain(p, icp, conf);
   p.search_candidates = 32;
+  p.search = test::unitObjectSearch(7.5, 32);
   p.search.min_separation_deg = 25.0;
-  p.search.axis = "any";
-  p.search.align_centroids = true;
-  p.search.heading_range_deg = 90.0;
-  p.search.heading_step_deg = 7.5;
-  p.search.translation_range = 0.3;
-  p.search.cell = 0.1;
-  p.search.sample_points = 300;
-  p.search.shifts_per_heading = 1;
   p.choice_plane_distance = 0.01;
   const registration::ObmNetIcpMatcher searched(p, icp, conf);
   int ok_plain = 0, ok_search = 0;
