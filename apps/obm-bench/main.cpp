@@ -62,6 +62,8 @@ struct NetRun {
   bool by_consensus = false;
   /// The self-training teacher's refinement after the network (the `obmnet+teacher` row).
   bool teacher_refine = false;
+  /// λ of the free-space choice among refined poses (--free-space; 0 = off).
+  double free_space = 0.0;
 };
 
 /// `keep_start`: the network's start competes with its poses on their fitness
@@ -195,6 +197,7 @@ registration::ObmNetMatcherParams obmnetIcpParams(const NetRun& net, double unit
   p.pre_align = pre_align;
   p.keep_init_if_better = false;
   p.overlap_stage_keep = overlap_keep;
+  p.choice_free_space_weight = net.free_space;
   return p;
 }
 
@@ -224,14 +227,28 @@ std::shared_ptr<registration::IcpMatcher> objectRefineIcpMatcher(double unit,
 /// ICP from each of `starts` against one prepared target, keeping the result with the largest
 /// inlier ratio (ICP's own score; the network's rows use their confidence): the classical rows
 /// with several starts.
+/// With `free_space` > 0 (sensor sweeps), the inlier ratio is discounted by the pose's free-space
+/// conflicts as the matcher's choice is (ObmNetMatcherParams::choice_free_space_weight).
 bench::MethodResult bestIcpOfStarts(const registration::ScanMatcher& icp, const PointCloud& s,
-                                    const PointCloud& t, const std::vector<Isometry3d>& starts) {
+                                    const PointCloud& t, const std::vector<Isometry3d>& starts,
+                                    double free_space = 0.0,
+                                    const registration::FreeSpaceParams& free_space_params = {}) {
   std::optional<registration::MatchResult> best;
+  double best_score = -1.0;
   const registration::PreparedTarget target = icp.prepare(t);  // once for all starts
+  std::optional<registration::FreeSpaceCheck> check;
+  if (free_space > 0.0) check.emplace(s.points, t.points, free_space_params);
   for (const Isometry3d& T0 : starts) {
     registration::MatchResult r = icp.match(s, target, T0);
     if (r.status == registration::MatchStatus::TooFewCorrespondences) continue;
-    if (!best || r.inlier_ratio > best->inlier_ratio) best = std::move(r);
+    const double score =
+        r.inlier_ratio *
+        (check ? std::max(0.0, 1.0 - free_space * check->conflicts(r.T_target_source).ratio())
+               : 1.0);
+    if (!best || score > best_score) {
+      best = std::move(r);
+      best_score = score;
+    }
   }
   if (!best) best = icp.match(s, target, Isometry3d::Identity());
   return matchResult(*best);
@@ -299,9 +316,9 @@ std::vector<Isometry3d> searchPoses(const PointCloud& s, const PointCloud& t,
 /// The classical chain on the same starts (`search+icp`): the refinement of `obmnet+icp` from
 /// each of the search's poses.
 bench::Method searchIcpMethod(std::shared_ptr<const registration::ScanMatcher> refine,
-                              const registration::CorrelativeSearchParams& p) {
-  return {"search+icp", [refine, p](const PointCloud& s, const PointCloud& t) {
-            return bestIcpOfStarts(*refine, s, t, searchPoses(s, t, p));
+                              const registration::CorrelativeSearchParams& p, double free_space) {
+  return {"search+icp", [refine, p, free_space](const PointCloud& s, const PointCloud& t) {
+            return bestIcpOfStarts(*refine, s, t, searchPoses(s, t, p), free_space, p.free_space);
           }};
 }
 
@@ -561,6 +578,7 @@ int main(int argc, char** argv) {
   double search_cell = 0.0;
   double search_step = 0.0;
   double choice_plane = -1.0;
+  double free_space = -1.0;
   int search_points = 0;
   int search_candidates = 0;  // 0: by the pairs' kind (below)
   int search_shifts = 0;
@@ -586,7 +604,8 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   app.add_option("--search-shifts", search_shifts,
                  "translations the search keeps per heading before ranking all its poses "
-                 "(default: 3 for sensor frames, 1 for objects and fragments)")
+                 "(default: 10 for kitti, 3 for other sensor frames, 1 for objects and "
+                 "fragments)")
       ->check(CLI::PositiveNumber);
   app.add_option("--search-color", search_color,
                  "grey-level tolerance of the search's occupancy on coloured pairs (0 = off): a "
@@ -602,6 +621,13 @@ int main(int argc, char** argv) {
                  "--unit] of the target's tangent planes (ObmNetMatcherParams::"
                  "choice_plane_distance; search+icp: its inliers within it); 0 = the confidence's "
                  "inlier threshold (default: 0.01 for object and fragment pairs, else 0)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--free-space", free_space,
+                 "sensor sweeps: weight λ of the free-space test (docs/registration.md, \"Free "
+                 "space\"): the search re-ranks its 64 best poses and the refined poses compete "
+                 "with their score times max(0, 1 - λ·r), r the share of both sweeps' points a "
+                 "pose puts where the other sweep looked through (the obmnet+icp rows with "
+                 "several refinements, search+icp); 0 = off (default: 4 for kitti, else 0)")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--search-candidates", search_candidates,
                  "poses the search hands on to the refinement, best first (default: 8 for sensor "
@@ -849,7 +875,10 @@ int main(int argc, char** argv) {
     // Every rotation of an object: more poses near the top (a turn 10° off can score below a
     // wrong one), one translation per turn.
     search.candidates = search_candidates > 0 ? search_candidates : sensor_frames ? 8 : 32;
-    search.shifts_per_heading = search_shifts > 0 ? search_shifts : sensor_frames ? 3 : 1;
+    search.shifts_per_heading = search_shifts > 0    ? search_shifts
+                                : protocol == "kitti" ? 10
+                                : sensor_frames       ? 3
+                                                      : 1;
     // The turns of every rotation lie 7.5° apart: poses handed on 25° apart, so that they are
     // not the neighbours of one wrong maximum (ICP from one reaches its neighbours' poses).
     if (search.axis == "any") search.min_separation_deg = 25.0;
@@ -857,6 +886,11 @@ int main(int argc, char** argv) {
     // Refined starts of objects converge onto some surface; at the noise's scale (σ = 0.01 of the
     // jittered protocols) only the right one lies on it (docs/obm-bench.md).
     if (choice_plane < 0.0) choice_plane = sensor_frames ? 0.0 : 0.01;
+    // LiDAR sweeps: slides along a street a block apart, and the free space to tell them apart
+    // (docs/obm-bench.md, "The search's defaults").
+    if (free_space < 0.0) free_space = protocol == "kitti" ? 4.0 : 0.0;
+    search.free_space_weight = free_space;
+    if (protocol == "kitti") search.min_separation_m = 5.0;
     search.seed = seed;
     search.color_tolerance = search_color;
     try {
@@ -886,6 +920,7 @@ int main(int argc, char** argv) {
     net.iterations = iterations;
     net.spatial_sigma = spatial_sigma;
     net.yaw_hypotheses = yaw_hypotheses;
+    net.free_space = free_space;
     if (const std::string why = registration::startTurnAxesError(start_turn_axes); !why.empty())
       throw ConfigError("--start-turn-axes: " + why);
     std::vector<bench::Method> methods;
@@ -991,7 +1026,7 @@ int main(int argc, char** argv) {
         methods.push_back(searchIcpMethod(
             std::make_shared<registration::IcpMatcher>(objectRefineIcpParams(unit, finish),
                                                        choice_confidence),
-            search));
+            search, free_space));
         registration::ObmNetMatcherParams with_search =
             obmnetIcpParams(net, unit, finish, overlap_keep);
         with_search.search = search;

@@ -270,10 +270,19 @@ struct Refinement {
   NetworkStage net;
 };
 
+/// The free-space discount of a refined pose, max(0, 1 − λ·r) (ObmNetMatcherParams::
+/// choice_free_space_weight); 1 without a check.
+double freeSpaceDiscount(const FreeSpaceCheck* check, double weight,
+                         const Isometry3d& T_target_source) {
+  if (check == nullptr || weight <= 0.0) return 1.0;
+  return std::max(0.0, 1.0 - weight * check->conflicts(T_target_source).ratio());
+}
+
 Refinement refineFrom(const obmnet::ObmNetRegistrar& registrar, const ObmNetMatcherParams& params,
                       const IcpParams& icp_, const ConfidenceParams& confidence_,
                       const PointCloud& source, const PreparedTarget& target,
-                      const Isometry3d& T_target_source_init) {
+                      const Isometry3d& T_target_source_init,
+                      const FreeSpaceCheck* free_space = nullptr) {
   const NetworkStage net = runNetwork(registrar, params, source, target, T_target_source_init);
   if (!net.ok) return {networkFailure(net, T_target_source_init), net};
   Isometry3d T_start = net.T_target_source;
@@ -339,18 +348,20 @@ Refinement refineFrom(const obmnet::ObmNetRegistrar& registrar, const ObmNetMatc
   // from the right one explains more of the whole sweep. The refinements compete on their inliers
   // (source points within the confidence's inlier threshold), not on the pairs within the fine
   // gate: a pose slid along a street pairs nearly every point within a metre-wide gate.
-  auto inliers = [&](const IcpOutcome& o) -> std::size_t {
-    if (o.status == MatchStatus::TooFewCorrespondences) return 0;
+  // With the free-space choice, the inliers are discounted by the pose's free-space conflicts.
+  auto inliers = [&](const IcpOutcome& o) -> double {
+    if (o.status == MatchStatus::TooFewCorrespondences) return 0.0;
     // Coloured inliers where the pair has colours (ConfidenceParams::color_inlier_threshold).
-    return evaluateAlignment(source.points, nullptr, target, o.T_target_source, icp_, confidence_,
-                             source_grey)
-        .num_inliers;
+    return static_cast<double>(evaluateAlignment(source.points, nullptr, target,
+                                                 o.T_target_source, icp_, confidence_,
+                                                 source_grey)
+                                   .num_inliers) *
+           freeSpaceDiscount(free_space, params.choice_free_space_weight, o.T_target_source);
   };
-  std::size_t icp_inliers = 0;
+  double icp_inliers = 0.0;
   auto compete = [&](IcpOutcome other, double margin) {
-    const std::size_t n = inliers(other);
-    if (other.status == MatchStatus::TooFewCorrespondences ||
-        static_cast<double>(n) <= margin * static_cast<double>(icp_inliers))
+    const double n = inliers(other);
+    if (other.status == MatchStatus::TooFewCorrespondences || n <= margin * icp_inliers)
       return false;
     icp = std::move(other);
     icp_inliers = n;
@@ -398,15 +409,22 @@ Refinement refineFrom(const obmnet::ObmNetRegistrar& registrar, const ObmNetMatc
 MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const PreparedTarget& target,
                                          const Isometry3d& T_target_source_init) const {
   const ObmNetMatcherParams& p = impl_->params;
-  Refinement best =
-      refineFrom(impl_->registrar, p, icp_, confidence_, source, target, T_target_source_init);
+  // The free-space choice: both sweeps' range images once per pair.
+  std::optional<FreeSpaceCheck> free_space;
+  if (p.choice_free_space_weight > 0.0)
+    free_space.emplace(source.points, target.cloud().points, p.free_space);
+  const FreeSpaceCheck* check = free_space ? &*free_space : nullptr;
+  Refinement best = refineFrom(impl_->registrar, p, icp_, confidence_, source, target,
+                               T_target_source_init, check);
   // Further starts compete on the share of the network's SVD weight that lands on the target
   // (the bias-weighted confidence), which tells a start that arrived from one that did not
-  // better than ICP's counts (docs/registration.md).
+  // better than ICP's counts (docs/registration.md); with the free-space choice, discounted by
+  // the pose's conflicts.
   auto score = [&](const Refinement& r) {
     if (!r.net.ok || r.result.status == MatchStatus::TooFewCorrespondences) return -1.0;
     return biasWeightedConfidence(r.net, target, r.result.T_target_source, icp_, confidence_,
-                                  p.choice_plane_distance);
+                                  p.choice_plane_distance) *
+           freeSpaceDiscount(check, p.choice_free_space_weight, r.result.T_target_source);
   };
   double best_score = p.start_turn_deg > 0.0 || p.search_candidates > 0 ? score(best) : -1.0;
   const NetworkStage first_net = p.search_candidates > 0 ? best.net : NetworkStage();
@@ -415,16 +433,19 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
     // by the guess or not) sees the pair from elsewhere; a pose T' of the turned source is the
     // pose T'·R of the source.
     for (const Isometry3d& turn : startTurns(p.start_turn_deg, p.start_turn_axes)) {
-      Refinement r = refineFrom(impl_->registrar, p, icp_, confidence_,
-                                source.transformed(turn, source.frame_id), target,
-                                T_target_source_init);
-      const double s = score(r);
-      if (s <= best_score) continue;
-      // Back to the source's own frame: the pose, and the network's points (for the
-      // confidence and the information, evaluated once below on the untouched source).
+      const PointCloud turned = source.transformed(turn, source.frame_id);
+      // The turn is about the sensor's origin, so the turned sweep has its own free space.
+      std::optional<FreeSpaceCheck> turned_check;
+      if (check) turned_check.emplace(turned.points, target.cloud().points, p.free_space);
+      Refinement r = refineFrom(impl_->registrar, p, icp_, confidence_, turned, target,
+                                T_target_source_init, turned_check ? &*turned_check : nullptr);
+      // Back to the source's own frame: the pose, and the network's points (for the score, and
+      // the confidence and the information, evaluated once below on the untouched source).
       r.result.T_target_source = r.result.T_target_source * turn;
       const Eigen::Matrix3f R_back = turn.linear().transpose().cast<float>();
       for (auto& q : r.net.sampled) q = R_back * q;
+      const double s = score(r);
+      if (s <= best_score) continue;
       best = std::move(r);
       best_score = s;
     }

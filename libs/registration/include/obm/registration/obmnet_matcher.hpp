@@ -119,6 +119,16 @@ struct ObmNetMatcherParams {
   /// scale only the right one lies on it (docs/registration.md, "Correlative search"). The
   /// returned confidence is always the usual one.
   double choice_plane_distance = 0.0;
+  /// ObmNetIcpMatcher on sensor sweeps, free space (free_space.hpp; 0 = off): every competition
+  /// among refined poses (the yaw hypotheses, the blind headings, the start turns, the search's
+  /// poses) multiplies a pose's score by max(0, 1 − λ·r), with λ this weight and r the share of
+  /// both sweeps' points the pose puts into the other sweep's free space. Both sweeps must be in
+  /// their sensor's frame (the sensor at the origin), as a LiDAR sweep is. Along a street of
+  /// repeated facades a slide by a block pairs as many points as the right pose, but moves the
+  /// parked cars and poles into road the other sweep looked through (docs/registration.md,
+  /// "Free space"). The returned confidence is the usual one.
+  double choice_free_space_weight = 0.0;
+  FreeSpaceParams free_space;  ///< YAML `free_space:`: the range images of the choice
 
   /// Reads the keys of `node` (model_path required; unknown keys rejected). A relative
   /// model_path is resolved against the folder of the YAML file.
