@@ -627,7 +627,7 @@ int main(int argc, char** argv) {
                  "space\"): the search re-ranks its 64 best poses and the refined poses compete "
                  "with their score times max(0, 1 - λ·r), r the share of both sweeps' points a "
                  "pose puts where the other sweep looked through (the obmnet+icp rows with "
-                 "several refinements, search+icp); 0 = off (default: 4 for kitti, else 0)")
+                 "several refinements, search+icp); 0 = off (default: 8 for kitti, else 0)")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--search-candidates", search_candidates,
                  "poses the search hands on to the refinement, best first (default: 8 for sensor "
@@ -888,7 +888,7 @@ int main(int argc, char** argv) {
     if (choice_plane < 0.0) choice_plane = sensor_frames ? 0.0 : 0.01;
     // LiDAR sweeps: slides along a street a block apart, and the free space to tell them apart
     // (docs/obm-bench.md, "The search's defaults").
-    if (free_space < 0.0) free_space = protocol == "kitti" ? 4.0 : 0.0;
+    if (free_space < 0.0) free_space = protocol == "kitti" ? 8.0 : 0.0;
     search.free_space_weight = free_space;
     if (protocol == "kitti") search.min_separation_m = 5.0;
     search.seed = seed;
@@ -1112,6 +1112,19 @@ int main(int argc, char** argv) {
       }
       methods = sel;
     }
+    // LiDAR sweeps (each in its sensor's frame): every method's pose is also scored by its
+    // free-space agreement, 1 − r (docs/registration.md, "Free space"), a confidence that any
+    // method can have; not the diagnostics started at the truth (their source is moved).
+    if (protocol == "kitti")
+      for (auto& m : methods) {
+        if (m.start_at_truth) continue;
+        m.fn = [fn = m.fn](const PointCloud& s, const PointCloud& t) {
+          bench::MethodResult r = fn(s, t);
+          const registration::FreeSpaceCheck check(s.points, t.points, {});
+          r.scores.push_back({"free_space", 1.0 - check.conflicts(r.T_target_source).ratio()});
+          return r;
+        };
+      }
     const eval::RecallThresholds recall{recall_deg, recall_trans};
     auto scores = bench::runBenchmark(pairs, methods, recall, !quiet);
     std::ostringstream title;

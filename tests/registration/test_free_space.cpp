@@ -111,7 +111,7 @@ registration::CorrelativeSearchParams streetSearch(bool free_space) {
   p.candidates = 8;
   p.seed = 1;
   if (free_space) {
-    p.free_space_weight = 4.0;
+    p.free_space_weight = 8.0;
     p.min_separation_m = 5.0;
     p.shifts_per_heading = 10;
   }
@@ -191,7 +191,7 @@ TEST(FreeSpace, ChoosesTheRightPlaceAmongSlidesAlongARepeatedStreet) {
         const double score = registration::evaluateAlignment(source.points, nullptr, prepared,
                                                              o.T_target_source, icp, conf)
                                  .inlier_ratio *
-                             (free_space ? std::max(0.0, 1.0 - 4.0 * ratio) : 1.0);
+                             (free_space ? std::max(0.0, 1.0 - 8.0 * ratio) : 1.0);
         if (score > best_score) {
           best_score = score;
           best = o.T_target_source;
