@@ -250,6 +250,9 @@ ObmNetIcpMatcher::ObmNetIcpMatcher(const ObmNetMatcherParams& params, const IcpP
   if (params.search_candidates > 0) params.search.validate();
   if (!(params.choice_plane_distance >= 0.0))
     throw ConfigError("obmnet matcher: choice_plane_distance must be >= 0 (0 = off)");
+  if (!(params.choice_free_space_weight >= 0.0))
+    throw ConfigError("obmnet matcher: choice_free_space_weight must be >= 0 (0 = off)");
+  if (params.choice_free_space_weight > 0.0) params.free_space.validate();
   impl_.reset(new Impl{params, makeRegistrar(params)});
 }
 
