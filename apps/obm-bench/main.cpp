@@ -318,7 +318,7 @@ std::vector<Isometry3d> searchPoses(const PointCloud& s, const PointCloud& t,
 bench::Method searchIcpMethod(std::shared_ptr<const registration::ScanMatcher> refine,
                               const registration::CorrelativeSearchParams& p, double free_space) {
   return {"search+icp", [refine, p, free_space](const PointCloud& s, const PointCloud& t) {
-            return bestIcpOfStarts(*refine, s, t, searchPoses(s, t, p), free_space, p.free_space);
+            return bestIcpOfStarts(*refine, s, t, searchPoses(s, t, p), free_space);
           }};
 }
 
@@ -624,10 +624,10 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_option("--free-space", free_space,
                  "sensor sweeps: weight λ of the free-space test (docs/registration.md, \"Free "
-                 "space\"): the search re-ranks its 64 best poses and the refined poses compete "
-                 "with their score times max(0, 1 - λ·r), r the share of both sweeps' points a "
-                 "pose puts where the other sweep looked through (the obmnet+icp rows with "
-                 "several refinements, search+icp); 0 = off (default: 8 for kitti, else 0)")
+                 "space\"): the refined poses compete with their score times max(0, 1 - λ·r), "
+                 "r the share of both sweeps' points a pose puts where the other sweep looked "
+                 "through (the obmnet+icp rows with several refinements, search+icp); 0 = off "
+                 "(default: 8 for kitti, else 0)")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--search-candidates", search_candidates,
                  "poses the search hands on to the refinement, best first (default: 8 for sensor "
@@ -889,7 +889,6 @@ int main(int argc, char** argv) {
     // LiDAR sweeps: slides along a street a block apart, and the free space to tell them apart
     // (docs/obm-bench.md, "The search's defaults").
     if (free_space < 0.0) free_space = protocol == "kitti" ? 8.0 : 0.0;
-    search.free_space_weight = free_space;
     if (protocol == "kitti") search.min_separation_m = 5.0;
     search.seed = seed;
     search.color_tolerance = search_color;

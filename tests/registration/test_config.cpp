@@ -148,9 +148,8 @@ TEST(RegistrationConfig, ErrorsNameFileAndKey) {
   expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, free_space: {margin: -1}}",
                     "obmnet.free_space");
   expectConfigError(
-      "type: obmnet+icp\nobmnet: {model_path: m.pt, search: {free_space_weight: 4, free_space: "
-      "{azimuth_step_deg: 0}}}",
-      "obmnet.search");
+      "type: obmnet+icp\nobmnet: {model_path: m.pt, free_space: {azimuth_step_deg: 0}}",
+      "obmnet.free_space");
   // Every rotation on a grid too fine to search.
   expectConfigError(
       "type: obmnet+icp\nobmnet: {model_path: m.pt, search: {axis: any, heading_step_deg: 1}}",
@@ -179,8 +178,8 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
       "ransac_candidates: 2, ransac_inlier_spacing: 1.5, ransac_max_turn_deg: 30, "
       "select_by_consensus: false, spatial_sigma: 0.05, start_turn_deg: 25, start_turn_axes: zx, "
       "search_candidates: 3, search: {axis: y, heading_range_deg: 90, translation_range: 2, "
-      "cell: 0.2, align_centroids: true, free_space_weight: 6, free_space_pool: 32, "
-      "free_space: {margin: 0.7}}, choice_plane_distance: 0.02, choice_free_space_weight: 8, "
+      "cell: 0.2, align_centroids: true}, choice_plane_distance: 0.02, "
+      "choice_free_space_weight: 8, "
       "free_space: {azimuth_step_deg: 3, elevation_step_deg: 1.5, relative_margin: 0.2, "
       "min_range: 2}}"));
   EXPECT_EQ(s.obmnet.search_candidates, 3);
@@ -191,9 +190,6 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
   EXPECT_TRUE(s.obmnet.search.align_centroids);
   EXPECT_DOUBLE_EQ(s.obmnet.choice_plane_distance, 0.02);
   EXPECT_DOUBLE_EQ(c.obmnet.choice_plane_distance, 0.0);  // the shipped YAML: off
-  EXPECT_DOUBLE_EQ(s.obmnet.search.free_space_weight, 6.0);
-  EXPECT_EQ(s.obmnet.search.free_space_pool, 32);
-  EXPECT_DOUBLE_EQ(s.obmnet.search.free_space.margin, 0.7);
   EXPECT_DOUBLE_EQ(s.obmnet.choice_free_space_weight, 8.0);
   EXPECT_DOUBLE_EQ(s.obmnet.free_space.azimuth_step_deg, 3.0);
   EXPECT_DOUBLE_EQ(s.obmnet.free_space.elevation_step_deg, 1.5);
@@ -202,15 +198,11 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
   // The shipped YAML: off, and the defaults its comments give.
   const registration::FreeSpaceParams f;
   EXPECT_DOUBLE_EQ(c.obmnet.choice_free_space_weight, 0.0);
-  EXPECT_DOUBLE_EQ(c.obmnet.search.free_space_weight, 0.0);
-  EXPECT_EQ(c.obmnet.search.free_space_pool, registration::CorrelativeSearchParams().free_space_pool);
-  for (const registration::FreeSpaceParams& y : {c.obmnet.free_space, c.obmnet.search.free_space}) {
-    EXPECT_DOUBLE_EQ(y.azimuth_step_deg, f.azimuth_step_deg);
-    EXPECT_DOUBLE_EQ(y.elevation_step_deg, f.elevation_step_deg);
-    EXPECT_DOUBLE_EQ(y.margin, f.margin);
-    EXPECT_DOUBLE_EQ(y.relative_margin, f.relative_margin);
-    EXPECT_DOUBLE_EQ(y.min_range, f.min_range);
-  }
+  EXPECT_DOUBLE_EQ(c.obmnet.free_space.azimuth_step_deg, f.azimuth_step_deg);
+  EXPECT_DOUBLE_EQ(c.obmnet.free_space.elevation_step_deg, f.elevation_step_deg);
+  EXPECT_DOUBLE_EQ(c.obmnet.free_space.margin, f.margin);
+  EXPECT_DOUBLE_EQ(c.obmnet.free_space.relative_margin, f.relative_margin);
+  EXPECT_DOUBLE_EQ(c.obmnet.free_space.min_range, f.min_range);
   EXPECT_EQ(c.obmnet.search_candidates, 0);  // the shipped YAML: no search
   EXPECT_EQ(c.obmnet.search.axis, "z");
   // ... and otherwise the search's defaults, as the YAML's comments say.

@@ -44,16 +44,6 @@ void CorrelativeSearchParams::validate() const {
   if (candidates < 1) throw ConfigError("correlative search: candidates must be >= 1");
   if (shifts_per_heading < 1)
     throw ConfigError("correlative search: shifts_per_heading must be >= 1");
-  if (!(free_space_weight >= 0.0))
-    throw ConfigError("correlative search: free_space_weight must be >= 0 (0 = off)");
-  if (free_space_pool < 1) throw ConfigError("correlative search: free_space_pool must be >= 1");
-  if (free_space_weight > 0.0) {
-    try {
-      free_space.validate();
-    } catch (const ConfigError& e) {
-      throw ConfigError(std::string("correlative search: ") + e.what());
-    }
-  }
   if (!(min_separation_deg >= 0.0) || !(min_separation_m >= 0.0))
     throw ConfigError("correlative search: min_separation_deg / min_separation_m must be >= 0");
 }
@@ -63,8 +53,7 @@ CorrelativeSearchParams CorrelativeSearchParams::load(const ConfigNode& node) {
   node.checkKeys({"axis", "axis_from_floor", "max_tilt_deg", "heading_range_deg",
                   "heading_step_deg", "translation_range", "axial_range", "align_centroids", "cell",
                   "sample_points", "candidates", "shifts_per_heading", "min_separation_deg",
-                  "min_separation_m", "color_tolerance", "seed", "free_space_weight",
-                  "free_space_pool", "free_space"});
+                  "min_separation_m", "color_tolerance", "seed"});
   node.get("axis", p.axis);
   node.get("axis_from_floor", p.axis_from_floor);
   node.get("max_tilt_deg", p.max_tilt_deg);
@@ -81,9 +70,6 @@ CorrelativeSearchParams CorrelativeSearchParams::load(const ConfigNode& node) {
   node.get("min_separation_m", p.min_separation_m);
   node.get("color_tolerance", p.color_tolerance);
   node.get("seed", p.seed);
-  node.get("free_space_weight", p.free_space_weight);
-  node.get("free_space_pool", p.free_space_pool);
-  if (node.has("free_space")) p.free_space = FreeSpaceParams::load(node.child("free_space"));
   try {
     p.validate();
   } catch (const ConfigError& e) {
@@ -416,12 +402,9 @@ std::vector<SearchHit> correlativeSearch(const PointCloud& source, const PointCl
   }
   std::stable_sort(all.begin(), all.end(),
                    [](const SearchHit& a, const SearchHit& b) { return a.score > b.score; });
-  const bool free_space = params.free_space_weight > 0.0;
-  const int wanted = free_space ? std::max(params.candidates, params.free_space_pool)
-                                : params.candidates;
   std::vector<SearchHit> out;
   for (const auto& h : all) {
-    if (static_cast<int>(out.size()) >= wanted) break;
+    if (static_cast<int>(out.size()) >= params.candidates) break;
     const bool apart = std::all_of(out.begin(), out.end(), [&](const SearchHit& o) {
       // The angle between the two rotations (about one axis: the heading difference).
       const double turn_deg =
@@ -433,18 +416,6 @@ std::vector<SearchHit> correlativeSearch(const PointCloud& source, const PointCl
                  params.min_separation_m;
     });
     if (apart) out.push_back(h);
-  }
-  if (free_space) {
-    // The pool re-ranked by its free-space conflicts (both sweeps whole: the range images are
-    // built once). The occupancy score cannot see what a sensor looked through.
-    const FreeSpaceCheck check(source.points, target.points, params.free_space);
-    for (SearchHit& h : out)
-      h.score *= std::max(0.0, 1.0 - params.free_space_weight *
-                                         check.conflicts(h.T_target_source).ratio());
-    std::stable_sort(out.begin(), out.end(),
-                     [](const SearchHit& a, const SearchHit& b) { return a.score > b.score; });
-    if (static_cast<int>(out.size()) > params.candidates)
-      out.resize(static_cast<std::size_t>(params.candidates));
   }
   return out;
 }

@@ -16,7 +16,6 @@
 
 #include "obm/core/point_cloud.hpp"
 #include "obm/core/se3.hpp"
-#include "obm/registration/free_space.hpp"
 
 namespace obm {
 class ConfigNode;
@@ -65,14 +64,6 @@ struct CorrelativeSearchParams {
   /// than this counts as a point next to one.
   double color_tolerance = 0.05;
   std::uint64_t seed = 0;  ///< seeds the source subset
-  /// Sensor sweeps, free space (free_space.hpp; 0 = off): the best `free_space_pool` poses
-  /// (pairwise separated as above) are re-ranked by score · max(0, 1 − λ·r), with λ this weight
-  /// and r the share of both sweeps' points that the pose puts into the other sweep's free space,
-  /// before the best `candidates` are returned. Along a street of repeated facades the occupancy
-  /// of a slide by a block scores as high as the right place; the free space tells them apart.
-  double free_space_weight = 0.0;
-  int free_space_pool = 64;
-  FreeSpaceParams free_space;  ///< YAML `free_space:`
 
   /// Throws ConfigError naming the field when a value is out of range.
   void validate() const;

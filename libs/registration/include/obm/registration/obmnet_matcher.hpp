@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "obm/registration/correlative_search.hpp"
+#include "obm/registration/free_space.hpp"
 #include "obm/registration/scan_matcher.hpp"
 
 namespace obm {
