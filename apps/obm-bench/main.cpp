@@ -86,13 +86,31 @@ bench::Method obmnetMethod(const std::string& name, const NetRun& net, bool keep
             .child("teacher"));
   }
   auto reg = std::make_shared<obmnet::ObmNetRegistrar>(o);
-  return {name, [reg](const PointCloud& s, const PointCloud& t) {
+  const double free_space = net.free_space;
+  const bool by_consensus = net.by_consensus;
+  return {name, [reg, free_space, by_consensus](const PointCloud& s, const PointCloud& t) {
             const obmnet::RegistrationResult r = reg->align(s, t);
             bench::MethodResult out(r.T_target_source);
             out.scores = {{"keypoint_fitness", r.fitness}, {"overlap", r.overlap}};
+            std::size_t k = 0;  // the returned hypothesis
+            if (free_space > 0.0 && r.hypotheses.size() > 1 && !r.kept_start) {
+              // As the matcher ranks them (ObmNetMatcherParams::choice_free_space_weight): the
+              // registrar's score discounted by the free-space conflicts.
+              std::vector<Isometry3d> poses;
+              std::vector<double> ranks;
+              for (const auto& h : r.hypotheses) {
+                poses.push_back(h.T_target_source);
+                ranks.push_back(by_consensus && h.consensus >= 0.0 ? h.consensus : h.fitness);
+              }
+              const registration::FreeSpaceCheck check(s.points, t.points, {});
+              k = registration::chooseByFreeSpace(poses, ranks, check, free_space);
+              out.T_target_source = poses[k];
+              out.scores = {{"keypoint_fitness", r.hypotheses[k].fitness},
+                            {"overlap", r.hypotheses[k].overlap}};
+            }
             // With RANSAC: the share of source points in the returned hypothesis's consensus.
-            if (!r.hypotheses.empty() && r.hypotheses.front().consensus >= 0.0)
-              out.scores.push_back({"consensus", r.hypotheses.front().consensus});
+            if (!r.hypotheses.empty() && r.hypotheses[k].consensus >= 0.0)
+              out.scores.push_back({"consensus", r.hypotheses[k].consensus});
             return out;
           }};
 }

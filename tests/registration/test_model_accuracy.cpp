@@ -23,6 +23,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -430,24 +431,39 @@ TEST(ModelAccuracy, SmallLidarModelWithRansacOnRealKittiSweepsTenApart) {
   EXPECT_GT(ok_ransac, ok_svd) << "RANSAC + ICP against the weighted SVD + ICP";
 }
 
+/// The benchmark drive (obm-sim urban_revisits, seed 5: a city no training run used), simulated
+/// here (no file): its trajectory and a sweep at any of its poses, as the LiDAR models see it.
+struct SeedFiveDrive {
+  sim::SequenceSimulator simulator;
+  std::unique_ptr<sim::RaycastScene> scene;
+  std::unique_ptr<sim::LidarSimulator> lidar;
+  SeedFiveDrive() : simulator(config()) {
+    simulator.prepare();
+    scene = std::make_unique<sim::RaycastScene>(simulator.scene().mesh);
+    lidar = std::make_unique<sim::LidarSimulator>(simulator.config().sensor.lidar);
+  }
+  static sim::SimConfig config() {
+    sim::SimCommandLine cl;
+    cl.preset = "urban_revisits";
+    cl.seed = 5;
+    return sim::resolveConfig(cl);
+  }
+  const sim::Trajectory& traj() const { return simulator.trajectory(); }
+  PointCloud sweep(std::size_t k) const {
+    return lidarCloud(
+        lidar->simulate(*scene, traj().poses.at(k), traj().stamps.at(k), 500 + k).cloud);
+  }
+};
+
 TEST(ModelAccuracy, SmallLidarModelHeadingByConsensusOnSimulatedRevisits) {
-  // Pairs of the benchmark drive (obm-sim urban_revisits, seed 5: a city no training run used)
-  // whose four yaw hypotheses, ranked by the fitness of their poses, return the street seen
-  // turned round (docs/benchmarks.md, "Ranking the yaw hypotheses by their consensus"): the
-  // wrong heading's points still land near points. Ranked by the share of source points in
-  // RANSAC's consensus on the network's own matches (select_by_consensus), the network alone
-  // must turn fewer of them round and end closer. The sweeps are simulated here (no file).
-  sim::SimCommandLine cl;
-  cl.preset = "urban_revisits";
-  cl.seed = 5;
-  sim::SequenceSimulator simulator(sim::resolveConfig(cl));
-  simulator.prepare();
-  const sim::Trajectory& traj = simulator.trajectory();
-  const sim::RaycastScene scene(simulator.scene().mesh);
-  const sim::LidarSimulator lidar(simulator.config().sensor.lidar);
-  auto sweep = [&](std::size_t k) {
-    return lidarCloud(lidar.simulate(scene, traj.poses.at(k), traj.stamps.at(k), 500 + k).cloud);
-  };
+  // Pairs of the benchmark drive whose four yaw hypotheses, ranked by the fitness of their
+  // poses, return the street seen turned round (docs/benchmarks.md, "Ranking the yaw hypotheses
+  // by their consensus"): the wrong heading's points still land near points. Ranked by the share
+  // of source points in RANSAC's consensus on the network's own matches (select_by_consensus),
+  // the network alone must turn fewer of them round and end closer.
+  const SeedFiveDrive drive;
+  const sim::Trajectory& traj = drive.traj();
+  auto sweep = [&](std::size_t k) { return drive.sweep(k); };
   const registration::IcpParams icp = lidarIcp();
   const registration::ConfidenceParams conf = lidarConfidence();
   const std::string model = kModels + "obmnet_lidar_small.pt";
@@ -484,6 +500,43 @@ TEST(ModelAccuracy, SmallLidarModelHeadingByConsensusOnSimulatedRevisits) {
               n, turned_fit, turned_cons, rre_fit / n, rre_cons / n);
   EXPECT_LT(turned_cons, turned_fit) << "hypotheses turned the wrong way, of " << n;
   EXPECT_LT(rre_cons / n, 0.5 * rre_fit / n) << "mean RRE of the network alone [deg]";
+}
+
+TEST(ModelAccuracy, SmallLidarModelHeadingByFreeSpaceOnSimulatedSweepsTwentyApart) {
+  // Sweeps 20 apart on the benchmark drive, where the network's hypotheses ranked by their
+  // consensus still return some streets seen from their other end. Ranked by the consensus
+  // discounted by the free-space conflicts (choice_free_space_weight, docs/registration.md "Free
+  // space"), the network alone must turn fewer round and end closer in rotation than not moving.
+  const SeedFiveDrive drive;
+  const sim::Trajectory& traj = drive.traj();
+  registration::ObmNetMatcherParams by_consensus = netParams(kModels + "obmnet_lidar_small.pt");
+  by_consensus.ransac_iterations = 5000;
+  by_consensus.yaw_hypotheses = 4;
+  registration::ObmNetMatcherParams by_free_space = by_consensus;
+  by_free_space.choice_free_space_weight = 8.0;
+  const registration::ObmNetMatcher cons_net(by_consensus, lidarIcp(), lidarConfidence());
+  const registration::ObmNetMatcher free_net(by_free_space, lidarIcp(), lidarConfidence());
+  int turned_cons = 0, turned_free = 0, n = 0;
+  double rre_cons = 0.0, rre_free = 0.0, rre_identity = 0.0;
+  for (std::size_t s = 40; s + 20 < traj.poses.size() && n < 12; s += 110, ++n) {
+    const std::size_t t = s + 20;
+    const Isometry3d truth = traj.poses.at(t).inverse() * traj.poses.at(s);  // T_t_s
+    const PointCloud source = drive.sweep(s), target = drive.sweep(t);
+    const double a = rreDeg(cons_net.match(source, target).T_target_source, truth);
+    const double b = rreDeg(free_net.match(source, target).T_target_source, truth);
+    std::printf("sweeps %zu->%zu: RRE by consensus %.2f deg, with free space %.2f deg\n", s, t,
+                a, b);
+    turned_cons += a > 45.0;
+    turned_free += b > 45.0;
+    rre_cons += a;
+    rre_free += b;
+    rre_identity += rreDeg(Isometry3d::Identity(), truth);
+  }
+  std::printf("%d pairs: turned > 45 deg %d (consensus) / %d (free space); mean RRE %.2f / %.2f "
+              "deg, identity %.2f deg\n",
+              n, turned_cons, turned_free, rre_cons / n, rre_free / n, rre_identity / n);
+  EXPECT_LT(turned_free, turned_cons) << "hypotheses turned the wrong way, of " << n;
+  EXPECT_LT(rre_free, rre_identity) << "mean RRE of the network alone against not moving";
 }
 
 /// The ten pairs of Open3D's five real RGB-D frames (1 cm voxels, depth 0.3–4 m): `fn(s, t,

@@ -102,4 +102,22 @@ FreeSpaceConflicts FreeSpaceCheck::conflicts(const Isometry3d& T_target_source) 
   return c;
 }
 
+std::size_t chooseByFreeSpace(const std::vector<Isometry3d>& T_target_source,
+                              const std::vector<double>& scores, const FreeSpaceCheck& check,
+                              double weight) {
+  if (scores.size() != T_target_source.size())
+    throw ContractError("chooseByFreeSpace: one score per pose");
+  std::size_t best = 0;
+  double best_value = -std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < T_target_source.size(); ++k) {
+    const double value =
+        scores[k] * std::max(0.0, 1.0 - weight * check.conflicts(T_target_source[k]).ratio());
+    if (value > best_value) {
+      best_value = value;
+      best = k;
+    }
+  }
+  return best;
+}
+
 }  // namespace obm::registration

@@ -61,6 +61,7 @@ struct NetworkStage {
     Isometry3d T_target_source = Isometry3d::Identity();
     double alpha = 1.0, overlap = 0.0;
     std::vector<double> prior;
+    double score = 0.0;  ///< what the registrar ranked it by (consensus share or fitness)
   };
   std::vector<Hypothesis> hypotheses;
 
@@ -129,7 +130,28 @@ NetworkStage runNetwork(const obmnet::ObmNetRegistrar& reg, const ObmNetMatcherP
     y.alpha = h.alpha;
     y.overlap = std::clamp(h.overlap, 0.0, 1.0);
     y.prior = svdWeights(h.inlier_weights, h.overlap_membership, h.alpha, n);
+    y.score = p.select_by_consensus && h.consensus >= 0.0 ? h.consensus : h.fitness;
     if (y.T_target_source.matrix().allFinite()) s.hypotheses.push_back(std::move(y));
+  }
+  if (p.choice_free_space_weight > 0.0 && s.hypotheses.size() > 1 && !r.kept_start) {
+    // The yaw hypotheses ranked by their score discounted by their free-space conflicts
+    // (docs/registration.md, "Free space"): a street seen from its other end puts its cars and
+    // poles into the road the target looked through.
+    std::vector<Isometry3d> poses;
+    std::vector<double> scores;
+    for (const auto& h : s.hypotheses) {
+      poses.push_back(h.T_target_source);
+      scores.push_back(h.score);
+    }
+    const FreeSpaceCheck check(source.points, target.cloud().points, p.free_space);
+    const std::size_t k = chooseByFreeSpace(poses, scores, check, p.choice_free_space_weight);
+    if (k > 0) {
+      std::rotate(s.hypotheses.begin(), s.hypotheses.begin() + static_cast<std::ptrdiff_t>(k),
+                  s.hypotheses.begin() + static_cast<std::ptrdiff_t>(k) + 1);
+      s.T_target_source = s.hypotheses.front().T_target_source;
+      s.alpha = s.hypotheses.front().alpha;
+      s.overlap = s.hypotheses.front().overlap;
+    }
   }
   // The returned pose is the fittest hypothesis's (finite, checked above): its weights are those.
   s.prior = !s.hypotheses.empty() && !r.kept_start

@@ -84,4 +84,11 @@ class FreeSpaceCheck {
   RangeImage target_image_;
 };
 
+/// The pose to keep among `T_target_source` (several hypotheses of one pair): the largest
+/// scores[k] · max(0, 1 − weight·r_k), the first on ties; 0 when there is one pose. `scores` has
+/// one entry per pose.
+std::size_t chooseByFreeSpace(const std::vector<Isometry3d>& T_target_source,
+                              const std::vector<double>& scores, const FreeSpaceCheck& check,
+                              double weight);
+
 }  // namespace obm::registration
