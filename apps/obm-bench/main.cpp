@@ -64,6 +64,8 @@ struct NetRun {
   bool teacher_refine = false;
   /// λ of the free-space choice among refined poses (--free-space; 0 = off).
   double free_space = 0.0;
+  /// λ of the free-space ranking of the network's yaw hypotheses (--free-space-hypotheses).
+  double free_space_hypotheses = 0.0;
 };
 
 /// `keep_start`: the network's start competes with its poses on their fitness
@@ -86,7 +88,7 @@ bench::Method obmnetMethod(const std::string& name, const NetRun& net, bool keep
             .child("teacher"));
   }
   auto reg = std::make_shared<obmnet::ObmNetRegistrar>(o);
-  const double free_space = net.free_space;
+  const double free_space = net.free_space_hypotheses;
   const bool by_consensus = net.by_consensus;
   return {name, [reg, free_space, by_consensus](const PointCloud& s, const PointCloud& t) {
             const obmnet::RegistrationResult r = reg->align(s, t);
@@ -216,6 +218,7 @@ registration::ObmNetMatcherParams obmnetIcpParams(const NetRun& net, double unit
   p.keep_init_if_better = false;
   p.overlap_stage_keep = overlap_keep;
   p.choice_free_space_weight = net.free_space;
+  p.hypothesis_free_space_weight = net.free_space_hypotheses;
   return p;
 }
 
@@ -597,6 +600,7 @@ int main(int argc, char** argv) {
   double search_step = 0.0;
   double choice_plane = -1.0;
   double free_space = -1.0;
+  double free_space_hypotheses = 0.0;
   int search_points = 0;
   int search_candidates = 0;  // 0: by the pairs' kind (below)
   int search_shifts = 0;
@@ -647,6 +651,12 @@ int main(int argc, char** argv) {
                  "through (the obmnet+icp rows with several refinements, search+icp); 0 = off "
                  "(default: 8 for kitti, else 0)")
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--free-space-hypotheses", free_space_hypotheses,
+                 "sensor sweeps: weight λ of the free-space ranking of the network's yaw "
+                 "hypotheses (ObmNetMatcherParams::hypothesis_free_space_weight; every network "
+                 "row); 0 = off")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   app.add_option("--search-candidates", search_candidates,
                  "poses the search hands on to the refinement, best first (default: 8 for sensor "
                  "frames, 32 for objects and fragments)")
@@ -938,6 +948,7 @@ int main(int argc, char** argv) {
     net.spatial_sigma = spatial_sigma;
     net.yaw_hypotheses = yaw_hypotheses;
     net.free_space = free_space;
+    net.free_space_hypotheses = free_space_hypotheses;
     if (const std::string why = registration::startTurnAxesError(start_turn_axes); !why.empty())
       throw ConfigError("--start-turn-axes: " + why);
     std::vector<bench::Method> methods;

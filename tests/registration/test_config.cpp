@@ -145,6 +145,9 @@ TEST(RegistrationConfig, ErrorsNameFileAndKey) {
                     "obmnet.choice_plane_distance");
   expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, choice_free_space_weight: -1}",
                     "obmnet.choice_free_space_weight");
+  expectConfigError(
+      "type: obmnet+icp\nobmnet: {model_path: m.pt, hypothesis_free_space_weight: -1}",
+      "obmnet.hypothesis_free_space_weight");
   expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, free_space: {margin: -1}}",
                     "obmnet.free_space");
   expectConfigError(
@@ -179,7 +182,7 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
       "select_by_consensus: false, spatial_sigma: 0.05, start_turn_deg: 25, start_turn_axes: zx, "
       "search_candidates: 3, search: {axis: y, heading_range_deg: 90, translation_range: 2, "
       "cell: 0.2, align_centroids: true}, choice_plane_distance: 0.02, "
-      "choice_free_space_weight: 8, "
+      "choice_free_space_weight: 8, hypothesis_free_space_weight: 3, "
       "free_space: {azimuth_step_deg: 3, elevation_step_deg: 1.5, relative_margin: 0.2, "
       "min_range: 2}}"));
   EXPECT_EQ(s.obmnet.search_candidates, 3);
@@ -191,6 +194,8 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
   EXPECT_DOUBLE_EQ(s.obmnet.choice_plane_distance, 0.02);
   EXPECT_DOUBLE_EQ(c.obmnet.choice_plane_distance, 0.0);  // the shipped YAML: off
   EXPECT_DOUBLE_EQ(s.obmnet.choice_free_space_weight, 8.0);
+  EXPECT_DOUBLE_EQ(s.obmnet.hypothesis_free_space_weight, 3.0);
+  EXPECT_DOUBLE_EQ(c.obmnet.hypothesis_free_space_weight, 0.0);
   EXPECT_DOUBLE_EQ(s.obmnet.free_space.azimuth_step_deg, 3.0);
   EXPECT_DOUBLE_EQ(s.obmnet.free_space.elevation_step_deg, 1.5);
   EXPECT_DOUBLE_EQ(s.obmnet.free_space.relative_margin, 0.2);

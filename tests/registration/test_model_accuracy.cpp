@@ -505,15 +505,16 @@ TEST(ModelAccuracy, SmallLidarModelHeadingByConsensusOnSimulatedRevisits) {
 TEST(ModelAccuracy, SmallLidarModelHeadingByFreeSpaceOnSimulatedSweepsTwentyApart) {
   // Sweeps 20 apart on the benchmark drive, where the network's hypotheses ranked by their
   // consensus still return some streets seen from their other end. Ranked by the consensus
-  // discounted by the free-space conflicts (choice_free_space_weight, docs/registration.md "Free
-  // space"), the network alone must turn fewer round and end closer in rotation than not moving.
+  // discounted by the free-space conflicts (hypothesis_free_space_weight, docs/registration.md
+  // "Free space"), the network alone must turn fewer round and end closer in rotation than not
+  // moving. The whole voxelised sweeps are checked, not 1 024 keypoints.
   const SeedFiveDrive drive;
   const sim::Trajectory& traj = drive.traj();
   registration::ObmNetMatcherParams by_consensus = netParams(kModels + "obmnet_lidar_small.pt");
   by_consensus.ransac_iterations = 5000;
   by_consensus.yaw_hypotheses = 4;
   registration::ObmNetMatcherParams by_free_space = by_consensus;
-  by_free_space.choice_free_space_weight = 8.0;
+  by_free_space.hypothesis_free_space_weight = 8.0;
   const registration::ObmNetMatcher cons_net(by_consensus, lidarIcp(), lidarConfidence());
   const registration::ObmNetMatcher free_net(by_free_space, lidarIcp(), lidarConfidence());
   int turned_cons = 0, turned_free = 0, n = 0;

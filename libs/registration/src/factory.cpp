@@ -38,6 +38,7 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
                   "search",
                   "choice_plane_distance",
                   "choice_free_space_weight",
+                  "hypothesis_free_space_weight",
                   "free_space"});
   p.model_path = node.required<std::string>("model_path");
   node.get("num_points", p.num_points);
@@ -95,6 +96,9 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   node.get("choice_free_space_weight", p.choice_free_space_weight);
   if (!(p.choice_free_space_weight >= 0.0))
     throw ConfigError(node.where("choice_free_space_weight") + ": must be >= 0 (0 = off)");
+  node.get("hypothesis_free_space_weight", p.hypothesis_free_space_weight);
+  if (!(p.hypothesis_free_space_weight >= 0.0))
+    throw ConfigError(node.where("hypothesis_free_space_weight") + ": must be >= 0 (0 = off)");
   if (node.has("free_space")) p.free_space = FreeSpaceParams::load(node.child("free_space"));
   node.get("start_turn_axes", p.start_turn_axes);
   if (const std::string why = startTurnAxesError(p.start_turn_axes); !why.empty())

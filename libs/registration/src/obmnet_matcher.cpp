@@ -133,7 +133,7 @@ NetworkStage runNetwork(const obmnet::ObmNetRegistrar& reg, const ObmNetMatcherP
     y.score = p.select_by_consensus && h.consensus >= 0.0 ? h.consensus : h.fitness;
     if (y.T_target_source.matrix().allFinite()) s.hypotheses.push_back(std::move(y));
   }
-  if (p.choice_free_space_weight > 0.0 && s.hypotheses.size() > 1 && !r.kept_start) {
+  if (p.hypothesis_free_space_weight > 0.0 && s.hypotheses.size() > 1 && !r.kept_start) {
     // The yaw hypotheses ranked by their score discounted by their free-space conflicts
     // (docs/registration.md, "Free space"): a street seen from its other end puts its cars and
     // poles into the road the target looked through.
@@ -144,7 +144,8 @@ NetworkStage runNetwork(const obmnet::ObmNetRegistrar& reg, const ObmNetMatcherP
       scores.push_back(h.score);
     }
     const FreeSpaceCheck check(source.points, target.cloud().points, p.free_space);
-    const std::size_t k = chooseByFreeSpace(poses, scores, check, p.choice_free_space_weight);
+    const std::size_t k =
+        chooseByFreeSpace(poses, scores, check, p.hypothesis_free_space_weight);
     if (k > 0) {
       std::rotate(s.hypotheses.begin(), s.hypotheses.begin() + static_cast<std::ptrdiff_t>(k),
                   s.hypotheses.begin() + static_cast<std::ptrdiff_t>(k) + 1);
@@ -274,7 +275,10 @@ ObmNetIcpMatcher::ObmNetIcpMatcher(const ObmNetMatcherParams& params, const IcpP
     throw ConfigError("obmnet matcher: choice_plane_distance must be >= 0 (0 = off)");
   if (!(params.choice_free_space_weight >= 0.0))
     throw ConfigError("obmnet matcher: choice_free_space_weight must be >= 0 (0 = off)");
-  if (params.choice_free_space_weight > 0.0) params.free_space.validate();
+  if (!(params.hypothesis_free_space_weight >= 0.0))
+    throw ConfigError("obmnet matcher: hypothesis_free_space_weight must be >= 0 (0 = off)");
+  if (params.choice_free_space_weight > 0.0 || params.hypothesis_free_space_weight > 0.0)
+    params.free_space.validate();
   impl_.reset(new Impl{params, makeRegistrar(params)});
 }
 

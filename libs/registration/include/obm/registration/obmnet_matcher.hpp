@@ -129,6 +129,12 @@ struct ObmNetMatcherParams {
   /// parked cars and poles into road the other sweep looked through (docs/registration.md,
   /// "Free space"). The returned confidence is the usual one.
   double choice_free_space_weight = 0.0;
+  /// Both OBMNet matchers (0 = off): the network's yaw hypotheses ranked by the registrar's score
+  /// (consensus share or fitness) times max(0, 1 − λ·r), λ this weight, before the first is
+  /// returned or refined. It helps where the network's right hypothesis is also right in
+  /// translation, and misleads where that one is slid along the street (then a turned pose that
+  /// puts the sweep out of the other's view has fewer conflicts): docs/benchmarks.md, "Free space".
+  double hypothesis_free_space_weight = 0.0;
   FreeSpaceParams free_space;  ///< YAML `free_space:`: the range images of the choice
 
   /// Reads the keys of `node` (model_path required; unknown keys rejected). A relative
