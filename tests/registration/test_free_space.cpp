@@ -169,7 +169,8 @@ TEST(FreeSpace, ChoosesTheRightPlaceAmongSlidesAlongARepeatedStreet) {
       return test::poseError(T, truth).second < 2.0 &&
              (T.translation() - truth.translation()).norm() < 1.0;
     };
-    // The old chain: ICP from each pose of the search without free space, the most inliers.
+    // ICP from each of the search's poses; the largest inlier ratio wins, with `free_space`
+    // times the discount (and the search then hands on ten translations per heading).
     auto best_of = [&](bool free_space) {
       Isometry3d best = Isometry3d::Identity();
       double best_score = -1.0;
