@@ -140,12 +140,13 @@ inline registration::IcpParams wallParams() {
 }
 
 /// The refinement of obm-bench's `obmnet+icp` for objects of the unit sphere: 0.1 gate from the
-/// start, Huber 0.02, PCA normals of 10 neighbours, up to 60 iterations (no polish).
-inline registration::IcpParams unitObjectIcp() {
+/// start, Huber 0.02, PCA normals of 10 neighbours, up to 60 iterations (no polish). `unit`
+/// scales the lengths as obm-bench's --unit does (its kitti protocol: 20 m, a 2 m gate).
+inline registration::IcpParams unitObjectIcp(double unit = 1.0) {
   registration::IcpParams p;
-  p.initial_max_correspondence_distance = 0.1;
-  p.max_correspondence_distance = 0.1;
-  p.kernel_scale = 0.02;
+  p.initial_max_correspondence_distance = 0.1 * unit;
+  p.max_correspondence_distance = 0.1 * unit;
+  p.kernel_scale = 0.02 * unit;
   p.normal_neighbors = 10;
   p.max_iterations = 60;
   p.min_correspondences = 20;

@@ -15,10 +15,8 @@
 #include "obm/registration/correlative_search.hpp"
 #include "obm/registration/free_space.hpp"
 #include "obm/registration/icp.hpp"
-#include "obm/sim/lidar.hpp"
-#include "obm/sim/scene.hpp"
-#include "obm/sim/simulator.hpp"
 #include "scenes.hpp"
+#include "seed_five_drive.hpp"
 
 namespace obm {
 namespace {
@@ -119,21 +117,10 @@ TEST(FreeSpace, ChoosesTheRightPlaceAmongSlidesAlongARepeatedStreet) {
   // one (docs/benchmarks.md, "Free space"). ICP from each of the search's poses; the refined
   // poses compete on their inlier ratio, or on it times the free-space discount. The sweeps are
   // simulated here (no file).
-  sim::SimCommandLine cl;
-  cl.preset = "urban_revisits";
-  cl.seed = 5;
-  sim::SequenceSimulator simulator(sim::resolveConfig(cl));
-  simulator.prepare();
-  const sim::Trajectory& traj = simulator.trajectory();
-  const sim::RaycastScene scene(simulator.scene().mesh);
-  const sim::LidarSimulator lidar(simulator.config().sensor.lidar);
+  const test::SeedFiveDrive drive;
+  const sim::Trajectory& traj = drive.traj();
   auto sweep = [&](std::size_t k) {
-    PointCloud c =
-        voxelDownsample(cropRange(lidar.simulate(scene, traj.poses.at(k), traj.stamps.at(k),
-                                                 700 + k)
-                                      .cloud,
-                                  2.0, 50.0),
-                        0.3);
+    PointCloud c = voxelDownsample(cropRange(drive.rawSweep(k, 700), 2.0, 50.0), 0.3);
     std::mt19937_64 rng(k);
     std::shuffle(c.points.begin(), c.points.end(), rng);
     PointCloud out;
@@ -142,14 +129,8 @@ TEST(FreeSpace, ChoosesTheRightPlaceAmongSlidesAlongARepeatedStreet) {
                       c.points.begin() + std::min<std::ptrdiff_t>(c.points.size(), 1024));
     return out;
   };
-  registration::IcpParams icp;
-  icp.max_correspondence_distance = 2.0;
-  icp.initial_max_correspondence_distance = 2.0;
-  icp.kernel_scale = 0.4;
-  icp.normal_neighbors = 10;
-  icp.max_iterations = 60;
-  icp.min_correspondences = 20;
-  icp.threads = 1;
+  // obm-bench's refinement of kitti pairs (--unit 20: a 2 m gate, Huber 0.4 m).
+  const registration::IcpParams icp = test::unitObjectIcp(20.0);
   registration::ConfidenceParams conf;
   conf.inlier_threshold = 1.0;
   int ok_inliers = 0, ok_free = 0, n = 0, truth_fewer = 0, compared = 0;  // placed pairs, poses

@@ -41,6 +41,7 @@
 #include "obm/sim/scene.hpp"
 #include "obm/sim/simulator.hpp"
 #include "scenes.hpp"
+#include "seed_five_drive.hpp"
 #include "test_data.hpp"
 
 namespace obm {
@@ -431,29 +432,10 @@ TEST(ModelAccuracy, SmallLidarModelWithRansacOnRealKittiSweepsTenApart) {
   EXPECT_GT(ok_ransac, ok_svd) << "RANSAC + ICP against the weighted SVD + ICP";
 }
 
-/// The benchmark drive (obm-sim urban_revisits, seed 5: a city no training run used), simulated
-/// here (no file): its trajectory and a sweep at any of its poses, as the LiDAR models see it.
-struct SeedFiveDrive {
-  sim::SequenceSimulator simulator;
-  std::unique_ptr<sim::RaycastScene> scene;
-  std::unique_ptr<sim::LidarSimulator> lidar;
-  SeedFiveDrive() : simulator(config()) {
-    simulator.prepare();
-    scene = std::make_unique<sim::RaycastScene>(simulator.scene().mesh);
-    lidar = std::make_unique<sim::LidarSimulator>(simulator.config().sensor.lidar);
-  }
-  static sim::SimConfig config() {
-    sim::SimCommandLine cl;
-    cl.preset = "urban_revisits";
-    cl.seed = 5;
-    return sim::resolveConfig(cl);
-  }
-  const sim::Trajectory& traj() const { return simulator.trajectory(); }
-  PointCloud sweep(std::size_t k) const {
-    return lidarCloud(
-        lidar->simulate(*scene, traj().poses.at(k), traj().stamps.at(k), 500 + k).cloud);
-  }
-};
+/// A sweep of the benchmark drive as the LiDAR models see it (lidarCloud).
+PointCloud driveSweep(const test::SeedFiveDrive& drive, std::size_t k) {
+  return lidarCloud(drive.rawSweep(k, 500));
+}
 
 TEST(ModelAccuracy, SmallLidarModelHeadingByConsensusOnSimulatedRevisits) {
   // Pairs of the benchmark drive whose four yaw hypotheses, ranked by the fitness of their
@@ -461,9 +443,9 @@ TEST(ModelAccuracy, SmallLidarModelHeadingByConsensusOnSimulatedRevisits) {
   // by their consensus"): the wrong heading's points still land near points. Ranked by the share
   // of source points in RANSAC's consensus on the network's own matches (select_by_consensus),
   // the network alone must turn fewer of them round and end closer.
-  const SeedFiveDrive drive;
+  const test::SeedFiveDrive drive;
   const sim::Trajectory& traj = drive.traj();
-  auto sweep = [&](std::size_t k) { return drive.sweep(k); };
+  auto sweep = [&](std::size_t k) { return driveSweep(drive, k); };
   const registration::IcpParams icp = lidarIcp();
   const registration::ConfidenceParams conf = lidarConfidence();
   const std::string model = kModels + "obmnet_lidar_small.pt";
@@ -508,7 +490,7 @@ TEST(ModelAccuracy, SmallLidarModelHeadingByFreeSpaceOnSimulatedSweepsTwentyApar
   // discounted by the free-space conflicts (hypothesis_free_space_weight, docs/registration.md
   // "Free space"), the network alone must turn fewer round and end closer in rotation than not
   // moving. The whole voxelised sweeps are checked, not 1 024 keypoints.
-  const SeedFiveDrive drive;
+  const test::SeedFiveDrive drive;
   const sim::Trajectory& traj = drive.traj();
   registration::ObmNetMatcherParams by_consensus = netParams(kModels + "obmnet_lidar_small.pt");
   by_consensus.ransac_iterations = 5000;
@@ -522,7 +504,7 @@ TEST(ModelAccuracy, SmallLidarModelHeadingByFreeSpaceOnSimulatedSweepsTwentyApar
   for (std::size_t s = 40; s + 20 < traj.poses.size() && n < 12; s += 110, ++n) {
     const std::size_t t = s + 20;
     const Isometry3d truth = traj.poses.at(t).inverse() * traj.poses.at(s);  // T_t_s
-    const PointCloud source = drive.sweep(s), target = drive.sweep(t);
+    const PointCloud source = driveSweep(drive, s), target = driveSweep(drive, t);
     const double a = rreDeg(cons_net.match(source, target).T_target_source, truth);
     const double b = rreDeg(free_net.match(source, target).T_target_source, truth);
     std::printf("sweeps %zu->%zu: RRE by consensus %.2f deg, with free space %.2f deg\n", s, t,
