@@ -66,6 +66,8 @@ struct NetRun {
   double free_space = 0.0;
   /// λ of the free-space ranking of the network's yaw hypotheses (--free-space-hypotheses).
   double free_space_hypotheses = 0.0;
+  /// The range images of both (a LiDAR's by default, a depth camera's for rgbd_frames).
+  registration::FreeSpaceParams free_space_params;
 };
 
 /// `keep_start`: the network's start competes with its poses on their fitness
@@ -89,8 +91,10 @@ bench::Method obmnetMethod(const std::string& name, const NetRun& net, bool keep
   }
   auto reg = std::make_shared<obmnet::ObmNetRegistrar>(o);
   const double free_space = net.free_space_hypotheses;
+  const registration::FreeSpaceParams free_space_params = net.free_space_params;
   const bool by_consensus = net.by_consensus;
-  return {name, [reg, free_space, by_consensus](const PointCloud& s, const PointCloud& t) {
+  return {name, [reg, free_space, free_space_params, by_consensus](const PointCloud& s,
+                                                                   const PointCloud& t) {
             const obmnet::RegistrationResult r = reg->align(s, t);
             bench::MethodResult out(r.T_target_source);
             out.scores = {{"keypoint_fitness", r.fitness}, {"overlap", r.overlap}};
@@ -104,7 +108,7 @@ bench::Method obmnetMethod(const std::string& name, const NetRun& net, bool keep
                 poses.push_back(h.T_target_source);
                 ranks.push_back(by_consensus && h.consensus >= 0.0 ? h.consensus : h.fitness);
               }
-              const registration::FreeSpaceCheck check(s.points, t.points, {});
+              const registration::FreeSpaceCheck check(s.points, t.points, free_space_params);
               k = registration::chooseByFreeSpace(poses, ranks, check, free_space);
               out.T_target_source = poses[k];
               out.scores = {{"keypoint_fitness", r.hypotheses[k].fitness},
@@ -219,6 +223,7 @@ registration::ObmNetMatcherParams obmnetIcpParams(const NetRun& net, double unit
   p.overlap_stage_keep = overlap_keep;
   p.choice_free_space_weight = net.free_space;
   p.hypothesis_free_space_weight = net.free_space_hypotheses;
+  p.free_space = net.free_space_params;
   return p;
 }
 
@@ -337,9 +342,12 @@ std::vector<Isometry3d> searchPoses(const PointCloud& s, const PointCloud& t,
 /// The classical chain on the same starts (`search+icp`): the refinement of `obmnet+icp` from
 /// each of the search's poses.
 bench::Method searchIcpMethod(std::shared_ptr<const registration::ScanMatcher> refine,
-                              const registration::CorrelativeSearchParams& p, double free_space) {
-  return {"search+icp", [refine, p, free_space](const PointCloud& s, const PointCloud& t) {
-            return bestIcpOfStarts(*refine, s, t, searchPoses(s, t, p), free_space);
+                              const registration::CorrelativeSearchParams& p, double free_space,
+                              const registration::FreeSpaceParams& free_space_params) {
+  return {"search+icp",
+          [refine, p, free_space, free_space_params](const PointCloud& s, const PointCloud& t) {
+            return bestIcpOfStarts(*refine, s, t, searchPoses(s, t, p), free_space,
+                                   free_space_params);
           }};
 }
 
@@ -949,6 +957,8 @@ int main(int argc, char** argv) {
     net.yaw_hypotheses = yaw_hypotheses;
     net.free_space = free_space;
     net.free_space_hypotheses = free_space_hypotheses;
+    // Depth frames are in the camera's optical frame (z forward), in metres.
+    if (protocol == "rgbd_frames") net.free_space_params = registration::FreeSpaceParams::depthCamera();
     if (const std::string why = registration::startTurnAxesError(start_turn_axes); !why.empty())
       throw ConfigError("--start-turn-axes: " + why);
     std::vector<bench::Method> methods;
@@ -1054,7 +1064,7 @@ int main(int argc, char** argv) {
         methods.push_back(searchIcpMethod(
             std::make_shared<registration::IcpMatcher>(objectRefineIcpParams(unit, finish),
                                                        choice_confidence),
-            search, free_space));
+            search, free_space, net.free_space_params));
         registration::ObmNetMatcherParams with_search =
             obmnetIcpParams(net, unit, finish, overlap_keep);
         with_search.search = search;
@@ -1140,15 +1150,15 @@ int main(int argc, char** argv) {
       }
       methods = sel;
     }
-    // LiDAR sweeps (each in its sensor's frame): every method's pose is also scored by its
+    // LiDAR sweeps and depth frames (each in its sensor's frame): every method's pose is also scored by its
     // free-space agreement, 1 − r (docs/registration.md, "Free space"), a confidence that any
     // method can have; not the diagnostics started at the truth (their source is moved).
-    if (protocol == "kitti")
+    if (protocol == "kitti" || protocol == "rgbd_frames")
       for (auto& m : methods) {
         if (m.start_at_truth) continue;
-        m.fn = [fn = m.fn](const PointCloud& s, const PointCloud& t) {
+        m.fn = [fn = m.fn, fsp = net.free_space_params](const PointCloud& s, const PointCloud& t) {
           bench::MethodResult r = fn(s, t);
-          const registration::FreeSpaceCheck check(s.points, t.points, {});
+          const registration::FreeSpaceCheck check(s.points, t.points, fsp);
           r.scores.push_back({"free_space", 1.0 - check.conflicts(r.T_target_source).ratio()});
           return r;
         };

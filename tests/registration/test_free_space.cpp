@@ -1,6 +1,6 @@
 // Free space (registration/free_space.hpp): what a sensor looked through, and the poses that put
 // the other sweep's points there; the choice among refined poses of LiDAR sweeps on a street of
-// repeated facades.
+// repeated facades; the same test in a depth camera's frame.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -66,6 +66,40 @@ TEST(FreeSpace, ConflictsBothWays) {
   EXPECT_EQ(wrong.num_source, source.size());
   EXPECT_GT(wrong.ratio(), 0.25);
   EXPECT_EQ(right.ratio(), 0.0);
+}
+
+TEST(FreeSpace, DepthCameraLooksAlongItsOpticalAxis) {
+  // A depth camera's frame (x right, y down, z forward): a wall 3 m ahead, 1 cm samples over a
+  // 60° × 45° field of view.
+  std::vector<Vector3f> wall;
+  for (float x = -1.7f; x <= 1.7f; x += 0.01f)
+    for (float y = -1.2f; y <= 1.2f; y += 0.01f) wall.emplace_back(x, y, 3.f);
+  const FreeSpaceParams camera = FreeSpaceParams::depthCamera();
+  const RangeImage image(wall, camera);
+  EXPECT_TRUE(image.inFreeSpace(Vector3f(0.f, 0.f, 1.5f))) << "on the optical axis, before the wall";
+  EXPECT_TRUE(image.inFreeSpace(Vector3f(0.8f, -0.5f, 2.f))) << "up and right, before the wall";
+  EXPECT_FALSE(image.inFreeSpace(Vector3f(0.f, 0.f, 2.95f))) << "within the margin (5 cm + 5 %)";
+  EXPECT_FALSE(image.inFreeSpace(Vector3f(0.f, 0.f, 4.f))) << "behind the wall: not seen";
+  EXPECT_FALSE(image.inFreeSpace(Vector3f(0.f, 0.f, -1.f))) << "behind the camera";
+  EXPECT_FALSE(image.inFreeSpace(Vector3f(3.f, 0.f, 0.5f))) << "out of the field of view";
+  // Slid 1 m towards the wall, the source's wall lies where the target looked through.
+  const FreeSpaceCheck check(wall, wall, camera);
+  const Isometry3d slid = makeIsometry(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, -1));
+  EXPECT_EQ(check.conflicts(Isometry3d::Identity()).ratio(), 0.0);
+  const auto wrong = check.conflicts(slid);
+  // Of the source's wall, now 2 m ahead, the part within the target's field of view (±29° × ±22°
+  // of 3.4 m × 2.4 m at 2 m: about 45 %) conflicts; the target's wall, 4 m ahead of the source,
+  // is behind what the source saw.
+  EXPECT_GT(wrong.source_in_target, wrong.num_source * 4 / 10);
+  EXPECT_EQ(wrong.target_in_source, 0u);
+  try {
+    FreeSpaceParams::load(ConfigNode::fromString("sensor: sonar\n", "fs.yaml"));
+    FAIL() << "an unknown sensor was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("sensor"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(FreeSpaceParams::load(ConfigNode::fromString("sensor: camera\n", "fs.yaml")).sensor,
+            registration::FreeSpaceSensor::Camera);
 }
 
 TEST(FreeSpace, RejectsBadSettingsByName) {

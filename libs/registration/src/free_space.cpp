@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
 
 #include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
@@ -22,8 +23,19 @@ void FreeSpaceParams::validate() const {
 
 FreeSpaceParams FreeSpaceParams::load(const ConfigNode& node) {
   FreeSpaceParams p;
-  node.checkKeys({"azimuth_step_deg", "elevation_step_deg", "margin", "relative_margin",
+  node.checkKeys({"sensor", "azimuth_step_deg", "elevation_step_deg", "margin", "relative_margin",
                   "min_range"});
+  if (node.has("sensor")) {
+    std::string sensor;
+    node.get("sensor", sensor);
+    if (sensor == "lidar") {
+      p.sensor = FreeSpaceSensor::Lidar;
+    } else if (sensor == "camera") {
+      p.sensor = FreeSpaceSensor::Camera;
+    } else {
+      throw ConfigError(node.where("sensor") + ": expected lidar or camera, got '" + sensor + "'");
+    }
+  }
   node.get("azimuth_step_deg", p.azimuth_step_deg);
   node.get("elevation_step_deg", p.elevation_step_deg);
   node.get("margin", p.margin);
@@ -34,6 +46,17 @@ FreeSpaceParams FreeSpaceParams::load(const ConfigNode& node) {
   } catch (const ConfigError& e) {
     throw ConfigError(node.where("") + ": " + e.what());
   }
+  return p;
+}
+
+FreeSpaceParams FreeSpaceParams::depthCamera() {
+  FreeSpaceParams p;
+  p.sensor = FreeSpaceSensor::Camera;
+  p.azimuth_step_deg = 1.0;
+  p.elevation_step_deg = 1.0;
+  p.margin = 0.05;
+  p.relative_margin = 0.05;
+  p.min_range = 0.2;
   return p;
 }
 
@@ -53,7 +76,11 @@ RangeImage::RangeImage(const std::vector<Vector3f>& points_sensor, const FreeSpa
   }
 }
 
-long RangeImage::cell(const Vector3f& p, float& range) const {
+long RangeImage::cell(const Vector3f& p_sensor, float& range) const {
+  // Forward, left, up: a camera's optical axis becomes the image's middle row and column.
+  const Vector3f p = params_.sensor == FreeSpaceSensor::Camera
+                         ? Vector3f(p_sensor.z(), -p_sensor.x(), -p_sensor.y())
+                         : p_sensor;
   range = p.norm();
   if (!(range > 0.0f) || !std::isfinite(range)) return -1;
   const double az = std::atan2(double(p.y()), double(p.x())) / kDegToRad + 180.0;  // [0, 360]
