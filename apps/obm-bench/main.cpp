@@ -60,6 +60,11 @@ struct NetRun {
   /// With `ransac`: hypotheses ranked by their RANSAC consensus (the +consensus rows, the library's
   /// default) or by their fitness (the +ransac rows).
   bool by_consensus = false;
+  /// The start's heading kept unless another hypothesis scores this factor more
+  /// (--start-heading-margin; 1 = no preference).
+  double start_heading_margin = 1.0;
+  /// The start kept below this consensus share (--min-consensus; 0 = off).
+  double min_consensus = 0.0;
   /// The self-training teacher's refinement after the network (the `obmnet+teacher` row).
   bool teacher_refine = false;
   /// λ of the free-space choice among refined poses (--free-space; 0 = off).
@@ -80,6 +85,8 @@ bench::Method obmnetMethod(const std::string& name, const NetRun& net, bool keep
   o.yaw_hypotheses = net.yaw_hypotheses;
   o.ransac_iterations = net.ransac;
   o.select_by_consensus = net.by_consensus;
+  o.start_heading_margin = net.start_heading_margin;
+  o.min_consensus = net.min_consensus;
   o.keep_start_if_fitter = keep_start;
   if (net.teacher_refine) {
     // The teacher of the point-to-plane self-training config, read from it; every pair refined.
@@ -93,8 +100,9 @@ bench::Method obmnetMethod(const std::string& name, const NetRun& net, bool keep
   const double free_space = net.free_space_hypotheses;
   const registration::FreeSpaceParams free_space_params = net.free_space_params;
   const bool by_consensus = net.by_consensus;
-  return {name, [reg, free_space, free_space_params, by_consensus](const PointCloud& s,
-                                                                   const PointCloud& t) {
+  const double margin = net.start_heading_margin;
+  return {name, [reg, free_space, free_space_params, by_consensus, margin](const PointCloud& s,
+                                                                           const PointCloud& t) {
             const obmnet::RegistrationResult r = reg->align(s, t);
             bench::MethodResult out(r.T_target_source);
             out.scores = {{"keypoint_fitness", r.fitness}, {"overlap", r.overlap}};
@@ -106,7 +114,8 @@ bench::Method obmnetMethod(const std::string& name, const NetRun& net, bool keep
               std::vector<double> ranks;
               for (const auto& h : r.hypotheses) {
                 poses.push_back(h.T_target_source);
-                ranks.push_back(by_consensus && h.consensus >= 0.0 ? h.consensus : h.fitness);
+                ranks.push_back((by_consensus && h.consensus >= 0.0 ? h.consensus : h.fitness) *
+                                (h.yaw_deg == 0.0 ? margin : 1.0));
               }
               const registration::FreeSpaceCheck check(s.points, t.points, free_space_params);
               k = registration::chooseByFreeSpace(poses, ranks, check, free_space);
@@ -215,6 +224,8 @@ registration::ObmNetMatcherParams obmnetIcpParams(const NetRun& net, double unit
   p.start_turn_axes = net.start_turn_axes;
   p.ransac_iterations = net.ransac;
   p.select_by_consensus = net.by_consensus;
+  p.start_heading_margin = net.start_heading_margin;
+  p.min_consensus = net.min_consensus;
   p.model_path = net.model;
   p.num_points = net.num_points;
   p.threads = net.threads;
@@ -609,6 +620,8 @@ int main(int argc, char** argv) {
   double choice_plane = -1.0;
   double free_space = -1.0;
   double free_space_hypotheses = 0.0;
+  double start_heading_margin = -1.0;
+  double min_consensus = -1.0;
   int search_points = 0;
   int search_candidates = 0;  // 0: by the pairs' kind (below)
   int search_shifts = 0;
@@ -659,6 +672,16 @@ int main(int argc, char** argv) {
                  "through (the obmnet+icp rows with several refinements, search+icp); 0 = off "
                  "(default: 8 for kitti, else 0)")
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--start-heading-margin", start_heading_margin,
+                 "several yaw hypotheses: the start's heading is kept unless another scores "
+                 "more than this factor times it (ObmNetMatcherParams::start_heading_margin; "
+                 "every network row); 1 = no preference (default: 1.25 for kitti, else 1)")
+      ->check(CLI::Range(1.0, 1e9));
+  app.add_option("--min-consensus", min_consensus,
+                 "the +consensus rows: below this share of source points in the chosen "
+                 "hypothesis's RANSAC consensus the network keeps the start "
+                 "(ObmNetMatcherParams::min_consensus); 0 = off (default: 0.06 for kitti, else 0)")
+      ->check(CLI::Range(0.0, 1.0));
   app.add_option("--free-space-hypotheses", free_space_hypotheses,
                  "sensor sweeps: weight λ of the free-space ranking of the network's yaw "
                  "hypotheses (ObmNetMatcherParams::hypothesis_free_space_weight; every network "
@@ -957,6 +980,13 @@ int main(int argc, char** argv) {
     net.yaw_hypotheses = yaw_hypotheses;
     net.free_space = free_space;
     net.free_space_hypotheses = free_space_hypotheses;
+    // LiDAR sweeps: the heading the pair is given in is kept unless another hypothesis's
+    // consensus is clearly larger, and the pair as given is kept when the network's matches
+    // agree on no hypothesis (docs/obm-bench.md, "The start's heading and the consensus floor").
+    if (start_heading_margin < 0.0) start_heading_margin = protocol == "kitti" ? 1.25 : 1.0;
+    if (min_consensus < 0.0) min_consensus = protocol == "kitti" ? 0.06 : 0.0;
+    net.start_heading_margin = start_heading_margin;
+    net.min_consensus = min_consensus;
     // Depth frames are in the camera's optical frame (z forward), in metres.
     if (protocol == "rgbd_frames") net.free_space_params = registration::FreeSpaceParams::depthCamera();
     if (const std::string why = registration::startTurnAxesError(start_turn_axes); !why.empty())

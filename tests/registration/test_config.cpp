@@ -163,6 +163,10 @@ TEST(RegistrationConfig, ErrorsNameFileAndKey) {
                     "obmnet.ransac_inlier_spacing");
   expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, ransac_max_turn_deg: 200}",
                     "obmnet.ransac_max_turn_deg");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, start_heading_margin: 0.5}",
+                    "obmnet.start_heading_margin");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, free_space: {sensor: radar}}",
+                    "obmnet.free_space.sensor");
 }
 
 TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
@@ -179,11 +183,11 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
       "overlap_stage_gate_factor: 3, refine_hypotheses: 0, init_headings: 8, "
       "init_headings_gate: 5, init_headings_margin: 1.2, iterations: 4, ransac_iterations: 3000, "
       "ransac_candidates: 2, ransac_inlier_spacing: 1.5, ransac_max_turn_deg: 30, "
-      "select_by_consensus: false, spatial_sigma: 0.05, start_turn_deg: 25, start_turn_axes: zx, "
+      "select_by_consensus: false, start_heading_margin: 1.25, spatial_sigma: 0.05, start_turn_deg: 25, start_turn_axes: zx, "
       "search_candidates: 3, search: {axis: y, heading_range_deg: 90, translation_range: 2, "
       "cell: 0.2, align_centroids: true}, choice_plane_distance: 0.02, "
       "choice_free_space_weight: 8, hypothesis_free_space_weight: 3, "
-      "free_space: {azimuth_step_deg: 3, elevation_step_deg: 1.5, relative_margin: 0.2, "
+      "free_space: {sensor: camera, azimuth_step_deg: 3, elevation_step_deg: 1.5, relative_margin: 0.2, "
       "min_range: 2}}"));
   EXPECT_EQ(s.obmnet.search_candidates, 3);
   EXPECT_EQ(s.obmnet.search.axis, "y");
@@ -200,6 +204,8 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
   EXPECT_DOUBLE_EQ(s.obmnet.free_space.elevation_step_deg, 1.5);
   EXPECT_DOUBLE_EQ(s.obmnet.free_space.relative_margin, 0.2);
   EXPECT_DOUBLE_EQ(s.obmnet.free_space.min_range, 2.0);
+  EXPECT_EQ(s.obmnet.free_space.sensor, registration::FreeSpaceSensor::Camera);
+  EXPECT_DOUBLE_EQ(s.obmnet.start_heading_margin, 1.25);
   // The shipped YAML: off, and the defaults its comments give.
   const registration::FreeSpaceParams f;
   EXPECT_DOUBLE_EQ(c.obmnet.choice_free_space_weight, 0.0);
@@ -208,6 +214,8 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
   EXPECT_DOUBLE_EQ(c.obmnet.free_space.margin, f.margin);
   EXPECT_DOUBLE_EQ(c.obmnet.free_space.relative_margin, f.relative_margin);
   EXPECT_DOUBLE_EQ(c.obmnet.free_space.min_range, f.min_range);
+  EXPECT_EQ(c.obmnet.free_space.sensor, registration::FreeSpaceSensor::Lidar);
+  EXPECT_DOUBLE_EQ(c.obmnet.start_heading_margin, 1.0);
   EXPECT_EQ(c.obmnet.search_candidates, 0);  // the shipped YAML: no search
   EXPECT_EQ(c.obmnet.search.axis, "z");
   // ... and otherwise the search's defaults, as the YAML's comments say.

@@ -76,7 +76,7 @@ TEST(FreeSpace, DepthCameraLooksAlongItsOpticalAxis) {
     for (float y = -1.2f; y <= 1.2f; y += 0.01f) wall.emplace_back(x, y, 3.f);
   const FreeSpaceParams camera = FreeSpaceParams::depthCamera();
   const RangeImage image(wall, camera);
-  EXPECT_TRUE(image.inFreeSpace(Vector3f(0.f, 0.f, 1.5f))) << "on the optical axis, before the wall";
+  EXPECT_TRUE(image.inFreeSpace(Vector3f(0.f, 0.f, 1.5f))) << "on the optical axis, before it";
   EXPECT_TRUE(image.inFreeSpace(Vector3f(0.8f, -0.5f, 2.f))) << "up and right, before the wall";
   EXPECT_FALSE(image.inFreeSpace(Vector3f(0.f, 0.f, 2.95f))) << "within the margin (5 cm + 5 %)";
   EXPECT_FALSE(image.inFreeSpace(Vector3f(0.f, 0.f, 4.f))) << "behind the wall: not seen";
@@ -87,9 +87,9 @@ TEST(FreeSpace, DepthCameraLooksAlongItsOpticalAxis) {
   const Isometry3d slid = makeIsometry(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, -1));
   EXPECT_EQ(check.conflicts(Isometry3d::Identity()).ratio(), 0.0);
   const auto wrong = check.conflicts(slid);
-  // Of the source's wall, now 2 m ahead, the part within the target's field of view (±29° × ±22°
-  // of 3.4 m × 2.4 m at 2 m: about 45 %) conflicts; the target's wall, 4 m ahead of the source,
-  // is behind what the source saw.
+  // Of the source's wall, now 2 m ahead, the part within the target's field of view
+  // (±29° × ±22° of 3.4 m × 2.4 m at 2 m: about 45 %) conflicts; the target's wall, 4 m ahead
+  // of the source, is behind what the source saw.
   EXPECT_GT(wrong.source_in_target, wrong.num_source * 4 / 10);
   EXPECT_EQ(wrong.target_in_source, 0u);
   try {

@@ -9,6 +9,8 @@
 //    consecutive ICP registrations (the sweeps have no ground truth);
 //  - LiDAR (obmnet_lidar_small.pt): real KITTI sweeps ten apart (~8 m), the network's
 //    correspondences given to RANSAC against its weighted SVD;
+//  - LiDAR (obmnet_lidar_small.pt): real KITTI sweeps ten apart, the start's heading preferred and
+//    a consensus floor (the start kept between sweeps of different places);
 //  - LiDAR (obmnet_lidar_small.pt): simulated sweeps 20 apart and revisits of the benchmark drive,
 //    the yaw hypotheses ranked by their RANSAC consensus against their fitness;
 //  - indoor (obmnet_indoor.pt): pairs of different real RGB-D frames (Open3D's five);
@@ -430,6 +432,71 @@ TEST(ModelAccuracy, SmallLidarModelWithRansacOnRealKittiSweepsTenApart) {
   EXPECT_LT(t_ransac / n, 0.25 * t_identity / n) << "against not moving [m]";
   EXPECT_GE(ok_ransac, 3) << "of " << n << " registered within 1° and 0.3 m with RANSAC + ICP";
   EXPECT_GT(ok_ransac, ok_svd) << "RANSAC + ICP against the weighted SVD + ICP";
+}
+
+TEST(ModelAccuracy, SmallLidarModelKeepsTheStartsHeadingAndTheStartWithoutConsensus) {
+  // The two guards of the network alone on sweeps far apart (docs/benchmarks.md, "The start's
+  // heading and a consensus floor"), on real sweeps ten apart (~8 m):
+  //  - start_heading_margin: a turned hypothesis must score more than the factor times the
+  //    start's heading. With the source turned round the network finds the turn (margin 1); with
+  //    a prohibitive margin it keeps the start's heading, so the pose stays turned round;
+  //  - min_consensus: between sweeps of two different places (the outdoor pair of the shared data
+  //    against a KITTI street) the network's matches agree on nothing, and with the floor the
+  //    start comes back unchanged; between the right sweeps the floor changes nothing.
+  OBM_REQUIRE_SHARED_DATA("kitti/raw_drive_22/velodyne/000021.bin");
+  OBM_REQUIRE_SHARED_DATA("real_pairs/lidar_small_gicp/T_target_source.txt");
+  const std::string d = test::sharedDataDir() + "/kitti/raw_drive_22/velodyne/";
+  auto sweep = [&](std::size_t i) {
+    return lidarCloud(io::readKittiVelodyne(d + io::kittiScanFileName(i)));
+  };
+  const registration::IcpParams icp = lidarIcp();
+  const registration::ConfidenceParams conf = lidarConfidence();
+  const registration::IcpMatcher chain_icp(icp, conf);
+  Isometry3d step = Isometry3d::Identity();
+  step.translation() = Eigen::Vector3d(0.8, 0.0, 0.0);
+  Isometry3d reference = Isometry3d::Identity();  // T_2_12, the chain of ICP steps
+  for (std::size_t j = 2; j < 12; ++j) {
+    const registration::MatchResult r = chain_icp.match(sweep(j + 1), sweep(j), step);
+    ASSERT_GT(r.inlier_ratio, 0.7) << "chain " << j + 1 << " -> " << j;
+    reference = reference * r.T_target_source;
+  }
+  const PointCloud source = sweep(12), target = sweep(2);
+  registration::ObmNetMatcherParams plain = netParams(kModels + "obmnet_lidar_small.pt");
+  plain.ransac_iterations = 5000;
+  plain.yaw_hypotheses = 4;
+  registration::ObmNetMatcherParams prohibitive = plain;
+  prohibitive.start_heading_margin = 1000.0;
+  registration::ObmNetMatcherParams floor = plain;
+  floor.min_consensus = 0.06;
+  const registration::ObmNetMatcher plain_net(plain, icp, conf);
+  const registration::ObmNetMatcher margin_net(prohibitive, icp, conf);
+  const registration::ObmNetMatcher floor_net(floor, icp, conf);
+
+  Isometry3d turn = Isometry3d::Identity();
+  turn.linear() =
+      Eigen::AngleAxisd(180.0 / kDegPerRad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const PointCloud turned = source.transformed(turn, "source_turned");
+  const Isometry3d truth_turned = reference * turn.inverse();
+  const Isometry3d a = plain_net.match(turned, target).T_target_source;
+  const Isometry3d b = margin_net.match(turned, target).T_target_source;
+  std::printf("source turned round: margin 1 RRE %.2f deg RTE %.2f m; margin 1000 RRE %.2f deg\n",
+              rreDeg(a, truth_turned), rte(a, truth_turned), rreDeg(b, truth_turned));
+  EXPECT_LT(rreDeg(a, truth_turned), 5.0) << "the network finds the turn among its hypotheses";
+  EXPECT_GT(rreDeg(b, truth_turned), 90.0) << "a prohibitive margin keeps the start's heading";
+
+  const Isometry3d right = floor_net.match(source, target).T_target_source;
+  const Isometry3d right_plain = plain_net.match(source, target).T_target_source;
+  const PointCloud elsewhere = realOutdoorPair().source;
+  const Isometry3d wrong = floor_net.match(elsewhere, target).T_target_source;
+  const Isometry3d wrong_plain = plain_net.match(elsewhere, target).T_target_source;
+  std::printf("right sweeps: floor RRE %.2f deg RTE %.2f m (without %.2f deg); another place: "
+              "floor moves %.3f m, without %.3f m\n",
+              rreDeg(right, reference), rte(right, reference), rreDeg(right_plain, reference),
+              wrong.translation().norm(), wrong_plain.translation().norm());
+  EXPECT_TRUE(wrong.isApprox(Isometry3d::Identity(), 1e-6)) << "the start kept without consensus";
+  EXPECT_FALSE(wrong_plain.isApprox(Isometry3d::Identity(), 1e-3)) << "without the floor it moves";
+  EXPECT_TRUE(right.isApprox(right_plain, 1e-9)) << "the floor leaves an agreed pose alone";
+  EXPECT_LT(rte(right, reference), 2.0) << "the right sweeps registered [m]";
 }
 
 /// A sweep of the benchmark drive as the LiDAR models see it (lidarCloud).

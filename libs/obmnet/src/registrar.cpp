@@ -44,6 +44,10 @@ ObmNetRegistrar::ObmNetRegistrar(const Options& options) : impl_(std::make_uniqu
         "ObmNetRegistrar: ransac_iterations must be >= 0, match_candidates in [1, " +
         std::to_string(kMatchCandidates) +
         "], ransac_inlier_spacing > 0 and ransac_max_turn_deg in (0, 180]");
+  if (!(options.min_consensus >= 0.0 && options.min_consensus <= 1.0))
+    throw ContractError("ObmNetRegistrar: min_consensus must be in [0, 1] (0 = off)");
+  if (!(options.start_heading_margin >= 1.0))
+    throw ContractError("ObmNetRegistrar: start_heading_margin must be >= 1 (1 = no preference)");
   if (options.threads > 0) torch::set_num_threads(options.threads);
 }
 
@@ -252,7 +256,8 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
       }
     }
     fit_of[static_cast<std::size_t>(h)] = fit;
-    const double score = by_consensus ? consensus_of[static_cast<std::size_t>(h)] : fit;
+    const double score = (by_consensus ? consensus_of[static_cast<std::size_t>(h)] : fit) *
+                         (h == 0 ? impl_->opt.start_heading_margin : 1.0);
     if (score > best_score) {
       best_score = score;
       best = h;
@@ -275,7 +280,15 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
   r.T_target_source = norm.denormalize(T_hat[static_cast<std::size_t>(best)]);
   r.fitness = best_fit;
   r.hypothesis_yaw_deg = 360.0 * best / H;
-  if (impl_->opt.keep_start_if_fitter) {
+  // The network's own matches do not agree on any hypothesis: keep the start.
+  const bool no_consensus = by_consensus && impl_->opt.min_consensus > 0.0 &&
+                            consensus_of[static_cast<std::size_t>(best)] < impl_->opt.min_consensus;
+  if (no_consensus) {
+    r.T_target_source = norm.denormalize(Isometry3d::Identity());
+    r.fitness = fitness(Isometry3d::Identity());
+    r.hypothesis_yaw_deg = 0.0;
+    r.kept_start = true;
+  } else if (impl_->opt.keep_start_if_fitter) {
     const double start_fit = fitness(Isometry3d::Identity());
     if (start_fit > best_fit) {
       r.T_target_source = norm.denormalize(Isometry3d::Identity());
@@ -300,9 +313,13 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
   }
   // Best first by the score that chose; ties keep the yaw order, so hypotheses.front() is the
   // pass `best` chose.
+  const double margin = impl_->opt.start_heading_margin;
+  auto choice_score = [by_consensus, margin](const YawHypothesis& y) {
+    return (by_consensus ? y.consensus : y.fitness) * (y.yaw_deg == 0.0 ? margin : 1.0);
+  };
   std::stable_sort(r.hypotheses.begin(), r.hypotheses.end(),
-                   [by_consensus](const YawHypothesis& a, const YawHypothesis& b) {
-                     return by_consensus ? a.consensus > b.consensus : a.fitness > b.fitness;
+                   [&choice_score](const YawHypothesis& a, const YawHypothesis& b) {
+                     return choice_score(a) > choice_score(b);
                    });
   r.alpha = r.hypotheses.front().alpha;
   r.overlap = r.hypotheses.front().overlap;

@@ -33,6 +33,8 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
                   "ransac_candidates",
                   "ransac_inlier_spacing",
                   "ransac_max_turn_deg",
+                  "start_heading_margin",
+                  "min_consensus",
                   "select_by_consensus",
                   "search_candidates",
                   "search",
@@ -67,6 +69,12 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   node.get("ransac_inlier_spacing", p.ransac_inlier_spacing);
   if (!(p.ransac_inlier_spacing > 0.0))
     throw ConfigError(node.where("ransac_inlier_spacing") + ": must be > 0");
+  node.get("start_heading_margin", p.start_heading_margin);
+  if (!(p.start_heading_margin >= 1.0))
+    throw ConfigError(node.where("start_heading_margin") + ": must be >= 1 (1 = no preference)");
+  node.get("min_consensus", p.min_consensus);
+  if (!(p.min_consensus >= 0.0 && p.min_consensus <= 1.0))
+    throw ConfigError(node.where("min_consensus") + ": must be in [0, 1] (0 = off)");
   node.get("ransac_max_turn_deg", p.ransac_max_turn_deg);
   if (!(p.ransac_max_turn_deg > 0.0 && p.ransac_max_turn_deg <= 180.0))
     throw ConfigError(node.where("ransac_max_turn_deg") + ": must be in (0, 180]");

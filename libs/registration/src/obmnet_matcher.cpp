@@ -42,6 +42,8 @@ obmnet::ObmNetRegistrar makeRegistrar(const ObmNetMatcherParams& p) {
   o.ransac_inlier_spacing = p.ransac_inlier_spacing;
   o.ransac_max_turn_deg = p.ransac_max_turn_deg;
   o.select_by_consensus = p.select_by_consensus;
+  o.start_heading_margin = p.start_heading_margin;
+  o.min_consensus = p.min_consensus;
   return obmnet::ObmNetRegistrar(o);
 }
 

@@ -51,7 +51,8 @@ struct RegistrationResult {
   double hypothesis_yaw_deg = 0.0;
   /// With Options::keep_start_if_fitter: the network's poses were all less fit than its start
   /// (the pose it was given: the identity of the clouds as passed, after the pair
-  /// normalisation), which is returned instead.
+  /// normalisation), which is returned instead; with Options::min_consensus: too few of its
+  /// matches agreed on the chosen hypothesis.
   bool kept_start = false;
   /// Every yaw hypothesis, best first by the score that chose (fitness, or the consensus with
   /// Options::select_by_consensus; one entry with a single hypothesis), for callers that
@@ -119,6 +120,18 @@ class ObmNetRegistrar {
     /// consensus asks that the network's own matches agree on the pose. Without RANSAC the fitness
     /// chooses.
     bool select_by_consensus = true;
+    /// Several yaw hypotheses: the start's own heading (hypothesis 0) is kept unless another
+    /// hypothesis scores more than this factor times its score (1 = no preference). A caller
+    /// that has a start, as odometry between consecutive sweeps has, knows the heading is near
+    /// it more often than not; a street or a corridor turned round can score as well as the
+    /// right heading, a revisit from the other direction scores far more.
+    double start_heading_margin = 1.0;
+    /// With select_by_consensus: when fewer than this share of the source points agree with the
+    /// chosen hypothesis's consensus pose, the start is returned instead (kept_start; 0 = off).
+    /// Where the network's matches scatter (sweeps far apart with little in common), the best of
+    /// the hypotheses is as likely a street turned round as the right pose, and the start, for
+    /// odometry the motion so far, is the better guess.
+    double min_consensus = 0.0;
     /// Refine the chosen pose as the self-training teacher labels a pair (teacherLabels with
     /// `teacher`: ICP on the network's sampled, normalised points, from the network's pose and
     /// from the identity, the start that aligns more points kept). Measures on benchmark pairs

@@ -66,6 +66,12 @@ struct ObmNetMatcherParams {
   /// With ransac_iterations: the yaw hypotheses ranked by their RANSAC consensus (true) or by
   /// their fitness (ObmNetRegistrar::Options::select_by_consensus).
   bool select_by_consensus = true;
+  /// Several yaw hypotheses: the start's heading is kept unless another scores more than this
+  /// factor times it (ObmNetRegistrar::Options::start_heading_margin; 1 = no preference).
+  double start_heading_margin = 1.0;
+  /// With select_by_consensus: below this consensus share the network keeps the start
+  /// (ObmNetRegistrar::Options::min_consensus; 0 = off).
+  double min_consensus = 0.0;
   /// ObmNetIcpMatcher: how many of the network's yaw hypotheses ICP refines, best first by the
   /// network's own ranking (its fitness, or its consensus with select_by_consensus; 1 = only the
   /// first; 0 = all). The refinement with the most inliers
