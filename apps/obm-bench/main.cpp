@@ -225,7 +225,6 @@ registration::ObmNetMatcherParams obmnetIcpParams(const NetRun& net, double unit
   p.ransac_iterations = net.ransac;
   p.select_by_consensus = net.by_consensus;
   p.start_heading_margin = net.start_heading_margin;
-  p.min_consensus = net.min_consensus;
   p.model_path = net.model;
   p.num_points = net.num_points;
   p.threads = net.threads;
@@ -678,8 +677,8 @@ int main(int argc, char** argv) {
                  "every network row); 1 = no preference (default: 1.25 for kitti, else 1)")
       ->check(CLI::Range(1.0, 1e9));
   app.add_option("--min-consensus", min_consensus,
-                 "the +consensus rows: below this share of source points in the chosen "
-                 "hypothesis's RANSAC consensus the network keeps the start "
+                 "the network rows without ICP (obmnet+consensus): below this share of source "
+                 "points in the chosen hypothesis's RANSAC consensus the network keeps the start "
                  "(ObmNetMatcherParams::min_consensus); 0 = off (default: 0.06 for kitti, else 0)")
       ->check(CLI::Range(0.0, 1.0));
   app.add_option("--free-space-hypotheses", free_space_hypotheses,

@@ -23,7 +23,10 @@ namespace obm::registration {
 
 namespace {
 
-obmnet::ObmNetRegistrar makeRegistrar(const ObmNetMatcherParams& p) {
+/// `network_alone`: for ObmNetMatcher, whose pose is the network's own. The matchers that refine
+/// judge the hypotheses by their refinements and confidence, and a start kept by
+/// `min_consensus` would take from ICP the hypothesis it could still have registered.
+obmnet::ObmNetRegistrar makeRegistrar(const ObmNetMatcherParams& p, bool network_alone = false) {
   if (p.model_path.empty()) throw ConfigError("obmnet matcher: model_path is empty");
   if (p.num_points < 0) throw ConfigError("obmnet matcher: num_points must be >= 0");
   if (p.threads < 1) throw ConfigError("obmnet matcher: threads must be >= 1");
@@ -43,7 +46,7 @@ obmnet::ObmNetRegistrar makeRegistrar(const ObmNetMatcherParams& p) {
   o.ransac_max_turn_deg = p.ransac_max_turn_deg;
   o.select_by_consensus = p.select_by_consensus;
   o.start_heading_margin = p.start_heading_margin;
-  o.min_consensus = p.min_consensus;
+  o.min_consensus = network_alone ? p.min_consensus : 0.0;
   return obmnet::ObmNetRegistrar(o);
 }
 
@@ -239,7 +242,7 @@ struct ObmNetMatcher::Impl {
 
 ObmNetMatcher::ObmNetMatcher(const ObmNetMatcherParams& params, const IcpParams& icp,
                              const ConfidenceParams& confidence)
-    : ScanMatcher(icp, confidence), impl_(new Impl{params, makeRegistrar(params)}) {}
+    : ScanMatcher(icp, confidence), impl_(new Impl{params, makeRegistrar(params, true)}) {}
 
 ObmNetMatcher::~ObmNetMatcher() = default;
 

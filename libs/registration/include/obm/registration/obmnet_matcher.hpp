@@ -70,7 +70,8 @@ struct ObmNetMatcherParams {
   /// factor times it (ObmNetRegistrar::Options::start_heading_margin; 1 = no preference).
   double start_heading_margin = 1.0;
   /// With select_by_consensus: below this consensus share the network keeps the start
-  /// (ObmNetRegistrar::Options::min_consensus; 0 = off).
+  /// (ObmNetRegistrar::Options::min_consensus; 0 = off). ObmNetMatcher only (the network
+  /// alone): the refining matchers let ICP and the confidence judge every hypothesis.
   double min_consensus = 0.0;
   /// ObmNetIcpMatcher: how many of the network's yaw hypotheses ICP refines, best first by the
   /// network's own ranking (its fitness, or its consensus with select_by_consensus; 1 = only the
