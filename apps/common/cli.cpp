@@ -1,12 +1,16 @@
 #include "cli.hpp"
 
+#include <dlfcn.h>
 #include <signal.h>
 #include <time.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <cctype>
+#include <cstdlib>
 #include <exception>
 #include <iostream>
+#include <string>
 
 #include "obm/core/errors.hpp"
 
@@ -56,6 +60,26 @@ void printLine(const std::string& line) {
 }  // namespace
 
 namespace obm::apps {
+
+void useFastBlasKernels(char** argv) {
+  if (std::getenv("OPENBLAS_CORETYPE") != nullptr) return;  // chosen by the user, or done
+  using CoreName = char* (*)();
+  const auto corename = reinterpret_cast<CoreName>(dlsym(RTLD_DEFAULT, "openblas_get_corename"));
+  if (corename == nullptr) return;  // another BLAS
+  std::string name = corename();
+  for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (name != "prescott") return;  // a known CPU: OpenBLAS's own choice stands
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+  __builtin_cpu_init();
+  if (!(__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))) return;
+  const bool avx512 = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+                      __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
+  if (setenv("OPENBLAS_CORETYPE", avx512 ? "SkylakeX" : "Haswell", 1) != 0) return;
+  execv("/proc/self/exe", argv);  // returns only on failure: go on with the slow kernels
+#else
+  (void)argv;
+#endif
+}
 
 std::atomic<bool>& installCancelHandler() {
   static const bool installed = [] {

@@ -13,6 +13,15 @@ class App;
 
 namespace obm::apps {
 
+/// OpenBLAS (LibTorch's matrix products on Debian) chooses its kernels by the CPU's model and
+/// falls back to the oldest (Prescott, SSE3) on a model it does not know, as virtual machines
+/// that report a generic "Intel Xeon Processor" are: the network's matrix products then run at
+/// half speed or less. When that happened and the CPU has AVX2 and FMA (and AVX-512), this sets
+/// OPENBLAS_CORETYPE to Haswell (SkylakeX) and runs the program again with the same arguments:
+/// OpenBLAS reads the variable only when it is loaded. Nothing happens when the variable is set,
+/// when the BLAS is not OpenBLAS, or when OpenBLAS recognised the CPU. Call it first in main().
+void useFastBlasKernels(char** argv);
+
 /// Installs the process's SIGINT and SIGTERM handler (SA_RESTART) and returns the flag it sets.
 /// The handler only touches lock-free atomics (async-signal-safe); the work polls the flag and
 /// stops at its next check (the apps then exit with status 130). A second signal a second or more
