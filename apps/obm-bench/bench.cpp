@@ -93,7 +93,8 @@ void writePairFolder(const std::string& dir, const std::vector<obmnet::Registrat
 
 std::vector<MethodScores> runBenchmark(const std::vector<obmnet::RegistrationPair>& pairs,
                                        const std::vector<Method>& methods,
-                                       const eval::RecallThresholds& recall, bool progress) {
+                                       const eval::RecallThresholds& recall, bool progress,
+                                       const PoseScorer& extra) {
   std::vector<MethodScores> out;
   for (const auto& m : methods) {
     eval::RegistrationAccumulator acc(recall);
@@ -122,6 +123,8 @@ std::vector<MethodScores> runBenchmark(const std::vector<obmnet::RegistrationPai
         OBM_LOG_WARN("obm-bench", m.name << " failed on pair " << p.name << ": " << e.what());
       }
       const double ms = t.ms();
+      if (extra && !failed && !m.start_at_truth)
+        for (auto& score : extra(p.source, p.target, T)) conf.push_back(std::move(score));
       s.per_pair.push_back(acc.add(T, p.T_target_source, ms));
       s.per_pair_ms.push_back(ms);
       s.per_pair_failed.push_back(failed);

@@ -63,10 +63,18 @@ std::vector<ConfidenceRating> rateConfidences(const std::vector<MethodScores>& s
 /// The ratings as a Markdown table.
 std::string confidenceTable(const std::vector<ConfidenceRating>& ratings);
 
-/// Runs every method on every pair (with a progress bar) and scores it.
+/// More confidence scores of a method's pose on a pair, computed by the benchmark itself (for
+/// every method alike) outside the timed call.
+using PoseScorer = std::function<std::vector<std::pair<std::string, double>>(
+    const PointCloud& source, const PointCloud& target, const Isometry3d& T_target_source)>;
+
+/// Runs every method on every pair (with a progress bar) and scores it. `extra`, when set, adds
+/// its scores to those of every method's pose except the diagnostics started at the truth
+/// (their source is moved) and the failed calls; its time is not the method's.
 std::vector<MethodScores> runBenchmark(const std::vector<obmnet::RegistrationPair>& pairs,
                                        const std::vector<Method>& methods,
-                                       const eval::RecallThresholds& recall, bool progress);
+                                       const eval::RecallThresholds& recall, bool progress,
+                                       const PoseScorer& extra = {});
 
 /// The paper's table: MAE(R), MAE(t), MIE(R), MIE(t), recall, median ms per method.
 std::string markdownTable(const std::vector<MethodScores>& scores, const std::string& title);
