@@ -99,23 +99,19 @@ bench::Method obmnetMethod(const std::string& name, const NetRun& net, bool keep
   auto reg = std::make_shared<obmnet::ObmNetRegistrar>(o);
   const double free_space = net.free_space_hypotheses;
   const registration::FreeSpaceParams free_space_params = net.free_space_params;
-  const bool by_consensus = net.by_consensus;
-  const double margin = net.start_heading_margin;
-  return {name, [reg, free_space, free_space_params, by_consensus, margin](const PointCloud& s,
-                                                                           const PointCloud& t) {
+  return {name, [reg, free_space, free_space_params](const PointCloud& s, const PointCloud& t) {
             const obmnet::RegistrationResult r = reg->align(s, t);
             bench::MethodResult out(r.T_target_source);
             out.scores = {{"keypoint_fitness", r.fitness}, {"overlap", r.overlap}};
             std::size_t k = 0;  // the returned hypothesis
             if (free_space > 0.0 && r.hypotheses.size() > 1 && !r.kept_start) {
-              // As the matcher ranks them (ObmNetMatcherParams::choice_free_space_weight): the
-              // registrar's score discounted by the free-space conflicts.
+              // As the matcher ranks them (ObmNetMatcherParams::hypothesis_free_space_weight): the
+              // registrar's ranking score discounted by the free-space conflicts.
               std::vector<Isometry3d> poses;
               std::vector<double> ranks;
               for (const auto& h : r.hypotheses) {
                 poses.push_back(h.T_target_source);
-                ranks.push_back((by_consensus && h.consensus >= 0.0 ? h.consensus : h.fitness) *
-                                (h.yaw_deg == 0.0 ? margin : 1.0));
+                ranks.push_back(h.score);
               }
               const registration::FreeSpaceCheck check(s.points, t.points, free_space_params);
               k = registration::chooseByFreeSpace(poses, ranks, check, free_space);

@@ -192,6 +192,7 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
   std::vector<Isometry3d> T_hat(static_cast<std::size_t>(H));
   std::vector<double> fit_of(static_cast<std::size_t>(H), 0.0);
   std::vector<double> consensus_of(static_cast<std::size_t>(H), -1.0);
+  std::vector<double> score_of(static_cast<std::size_t>(H), 0.0);
   for (int h = 0; h < H; ++h) {
     T_hat[static_cast<std::size_t>(h)] = orthonormalized(toIsometry(o.R, o.t, h)) *
                                          turn(Rz[static_cast<std::size_t>(h)]);
@@ -258,6 +259,7 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
     fit_of[static_cast<std::size_t>(h)] = fit;
     const double score = (by_consensus ? consensus_of[static_cast<std::size_t>(h)] : fit) *
                          (h == 0 ? impl_->opt.start_heading_margin : 1.0);
+    score_of[static_cast<std::size_t>(h)] = score;
     if (score > best_score) {
       best_score = score;
       best = h;
@@ -304,6 +306,7 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
     y.yaw_deg = 360.0 * h / H;
     y.fitness = fit_of[static_cast<std::size_t>(h)];
     y.consensus = consensus_of[static_cast<std::size_t>(h)];
+    y.score = score_of[static_cast<std::size_t>(h)];
     y.alpha = o.alpha[h].item<double>();
     y.overlap = o.overlap[h].item<double>();
     const auto w = o.weights[h].contiguous();
@@ -313,14 +316,8 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
   }
   // Best first by the score that chose; ties keep the yaw order, so hypotheses.front() is the
   // pass `best` chose.
-  const double margin = impl_->opt.start_heading_margin;
-  auto choice_score = [by_consensus, margin](const YawHypothesis& y) {
-    return (by_consensus ? y.consensus : y.fitness) * (y.yaw_deg == 0.0 ? margin : 1.0);
-  };
   std::stable_sort(r.hypotheses.begin(), r.hypotheses.end(),
-                   [&choice_score](const YawHypothesis& a, const YawHypothesis& b) {
-                     return choice_score(a) > choice_score(b);
-                   });
+                   [](const YawHypothesis& a, const YawHypothesis& b) { return a.score > b.score; });
   r.alpha = r.hypotheses.front().alpha;
   r.overlap = r.hypotheses.front().overlap;
   r.inlier_weights = r.hypotheses.front().inlier_weights;

@@ -135,10 +135,7 @@ NetworkStage runNetwork(const obmnet::ObmNetRegistrar& reg, const ObmNetMatcherP
     y.alpha = h.alpha;
     y.overlap = std::clamp(h.overlap, 0.0, 1.0);
     y.prior = svdWeights(h.inlier_weights, h.overlap_membership, h.alpha, n);
-    // The registrar's ranking score, the start's heading weighted as it chose
-    // (start_heading_margin).
-    y.score = (p.select_by_consensus && h.consensus >= 0.0 ? h.consensus : h.fitness) *
-              (h.yaw_deg == 0.0 ? p.start_heading_margin : 1.0);
+    y.score = h.score;
     if (y.T_target_source.matrix().allFinite()) s.hypotheses.push_back(std::move(y));
   }
   if (p.hypothesis_free_space_weight > 0.0 && s.hypotheses.size() > 1 && !r.kept_start) {

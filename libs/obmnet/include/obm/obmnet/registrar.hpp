@@ -23,6 +23,9 @@ struct YawHypothesis {
   /// Share of the sampled source points in RANSAC's consensus on this pass's matches (−1 without
   /// Options::ransac_iterations).
   double consensus = -1.0;
+  /// What the hypotheses were ranked by: the consensus share (Options::select_by_consensus with
+  /// RANSAC) or the fitness, times Options::start_heading_margin for the start's heading.
+  double score = 0.0;
   double alpha = 1.0;    ///< α of this pass
   double overlap = 1.0;  ///< overlap estimate of this pass
   std::vector<float> inlier_weights, overlap_membership;  ///< as in RegistrationResult
