@@ -61,24 +61,39 @@ void printLine(const std::string& line) {
 
 namespace obm::apps {
 
-void useFastBlasKernels(char** argv) {
-  if (std::getenv("OPENBLAS_CORETYPE") != nullptr) return;  // chosen by the user, or done
+namespace {
+
+/// OPENBLAS_CORETYPE for a CPU OpenBLAS did not recognise (useFastMathLibraries), or nullptr.
+const char* fasterBlasCore() {
   using CoreName = char* (*)();
   const auto corename = reinterpret_cast<CoreName>(dlsym(RTLD_DEFAULT, "openblas_get_corename"));
-  if (corename == nullptr) return;  // another BLAS
+  if (corename == nullptr) return nullptr;  // another BLAS
   std::string name = corename();
   for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (name != "prescott") return;  // a known CPU: OpenBLAS's own choice stands
+  if (name != "prescott") return nullptr;  // a known CPU: OpenBLAS's own choice stands
 #if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
   __builtin_cpu_init();
-  if (!(__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))) return;
+  if (!(__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))) return nullptr;
   const bool avx512 = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
                       __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
-  if (setenv("OPENBLAS_CORETYPE", avx512 ? "SkylakeX" : "Haswell", 1) != 0) return;
-  execv("/proc/self/exe", argv);  // returns only on failure: go on with the slow kernels
+  return avx512 ? "SkylakeX" : "Haswell";
 #else
-  (void)argv;
+  return nullptr;
 #endif
+}
+
+}  // namespace
+
+void useFastMathLibraries(char** argv) {
+  bool changed = false;
+  if (std::getenv("OMP_WAIT_POLICY") == nullptr && std::getenv("GOMP_SPINCOUNT") == nullptr)
+    changed |= setenv("OMP_WAIT_POLICY", "PASSIVE", 1) == 0;
+  if (std::getenv("OPENBLAS_CORETYPE") == nullptr) {  // unset: neither the user nor a first run
+    if (const char* core = fasterBlasCore()) changed |= setenv("OPENBLAS_CORETYPE", core, 1) == 0;
+  }
+  // After the second start both are set (or OpenBLAS runs its own choice), so this runs once.
+  // execv returns only on failure: go on with the libraries as they were loaded.
+  if (changed) execv("/proc/self/exe", argv);
 }
 
 std::atomic<bool>& installCancelHandler() {

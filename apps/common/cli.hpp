@@ -13,14 +13,22 @@ class App;
 
 namespace obm::apps {
 
-/// OpenBLAS (LibTorch's matrix products on Debian) chooses its kernels by the CPU's model and
-/// falls back to the oldest (Prescott, SSE3) on a model it does not know, as virtual machines
-/// that report a generic "Intel Xeon Processor" are: the network's matrix products then run at
-/// half speed or less. When that happened and the CPU has AVX2 and FMA (and AVX-512), this sets
-/// OPENBLAS_CORETYPE to Haswell (SkylakeX) and runs the program again with the same arguments:
-/// OpenBLAS reads the variable only when it is loaded. Nothing happens when the variable is set,
-/// when the BLAS is not OpenBLAS, or when OpenBLAS recognised the CPU. Call it first in main().
-void useFastBlasKernels(char** argv);
+/// Settings of the math libraries that are read only when the libraries are loaded, so that
+/// they must be in the environment before the program starts; when one is missing, this sets it
+/// and runs the program again with the same arguments (once). Call it first in main().
+/// - OpenMP's waiting workers (LibTorch's and OpenBLAS's thread teams): OMP_WAIT_POLICY=PASSIVE
+///   unless OMP_WAIT_POLICY or GOMP_SPINCOUNT is set. By default a worker that waits for the
+///   next parallel region spins on its core; when another process needs that core, the spinning
+///   and the waiting for a descheduled worker made a 2-thread network pass 2.5-3.5 times slower
+///   than on one thread (docs/benchmarks.md, "OpenMP's waiting workers"). Sleeping workers cost
+///   about 10 % on an idle machine and none of that on a busy one.
+/// - OpenBLAS (LibTorch's matrix products on Debian) chooses its kernels by the CPU's model and
+///   falls back to the oldest (Prescott, SSE3) on a model it does not know, as virtual machines
+///   that report a generic "Intel Xeon Processor" are: the network's matrix products then run
+///   at half speed or less. When that happened and the CPU has AVX2 and FMA (and AVX-512), this
+///   sets OPENBLAS_CORETYPE to Haswell (SkylakeX). Nothing happens when the variable is set,
+///   when the BLAS is not OpenBLAS, or when OpenBLAS recognised the CPU.
+void useFastMathLibraries(char** argv);
 
 /// Installs the process's SIGINT and SIGTERM handler (SA_RESTART) and returns the flag it sets.
 /// The handler only touches lock-free atomics (async-signal-safe); the work polls the flag and

@@ -427,7 +427,7 @@ bench::Open3dParams scaledOpen3dParams(double unit) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  obm::apps::useFastBlasKernels(argv);
+  obm::apps::useFastMathLibraries(argv);
   CLI::App app{
       "obm-bench: registration benchmark. Scores OBMNet, OBMNet + point-to-plane ICP, ICP alone "
       "and\n"

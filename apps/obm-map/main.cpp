@@ -12,7 +12,7 @@
 #include "obm/slam/mapping_app.hpp"
 
 int main(int argc, char** argv) {
-  obm::apps::useFastBlasKernels(argv);
+  obm::apps::useFastMathLibraries(argv);
   CLI::App app{
       "obm-map: plays a LiDAR or RGB-D sequence through the SLAM pipeline — preprocessing, "
       "scan-to-local-map tracking, keyframes, loop closures verified by the scan matcher "

@@ -23,7 +23,7 @@
 #include "launcher.hpp"
 
 int main(int argc, char** argv) {
-  obm::apps::useFastBlasKernels(argv);
+  obm::apps::useFastMathLibraries(argv);
   CLI::App app{
       "obm-train: unsupervised training of OBMNet (L_g + L_n + L_s, optionally self-training\n"
       "labels from its own ICP-refined estimate; no ground truth).\n"
