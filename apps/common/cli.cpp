@@ -96,6 +96,18 @@ void useFastMathLibraries(char** argv) {
   if (changed) execv("/proc/self/exe", argv);
 }
 
+std::string mathLibrarySettings() {
+  std::string out;
+  for (const char* name : {"OMP_WAIT_POLICY", "GOMP_SPINCOUNT", "OPENBLAS_CORETYPE"}) {
+    const char* value = std::getenv(name);
+    out += std::string(out.empty() ? "" : " ") + name + "=" + (value ? value : "(unset)");
+  }
+  using CoreName = char* (*)();
+  const auto corename = reinterpret_cast<CoreName>(dlsym(RTLD_DEFAULT, "openblas_get_corename"));
+  out += std::string(" OpenBLAS core=") + (corename ? corename() : "(not OpenBLAS)");
+  return out;
+}
+
 std::atomic<bool>& installCancelHandler() {
   static const bool installed = [] {
     struct sigaction sa {};

@@ -30,6 +30,10 @@ namespace obm::apps {
 ///   when the BLAS is not OpenBLAS, or when OpenBLAS recognised the CPU.
 void useFastMathLibraries(char** argv);
 
+/// The settings useFastMathLibraries manages, as the process runs with them, for a log line:
+/// "OMP_WAIT_POLICY=PASSIVE GOMP_SPINCOUNT=(unset) OPENBLAS_CORETYPE=(unset) OpenBLAS core=Haswell".
+std::string mathLibrarySettings();
+
 /// Installs the process's SIGINT and SIGTERM handler (SA_RESTART) and returns the flag it sets.
 /// The handler only touches lock-free atomics (async-signal-safe); the work polls the flag and
 /// stops at its next check (the apps then exit with status 130). A second signal a second or more

@@ -694,6 +694,7 @@ int main(int argc, char** argv) {
 
   return apps::runMain("obm-bench", apps::OtherExceptions::Error, [&] {
     setLogLevel(parseLogLevel(log_level));
+    OBM_LOG_DEBUG("obm-bench", "math libraries: " << apps::mathLibrarySettings());
     if (model.empty()) {
       // The model of the data's kind; pairs of unknown origin (--pairs) and noisy protocols get
       // a model trained on noise (the noise-free one fails on any jittered cloud).

@@ -59,6 +59,7 @@ int main(int argc, char** argv) {
 
   return obm::apps::runMain("obm-map", [&] {
     obm::setLogLevel(obm::parseLogLevel(log_level));
+    OBM_LOG_DEBUG("obm-map", "math libraries: " << obm::apps::mathLibrarySettings());
     auto root = obm::ConfigNode::loadFile(config);
     obm::applyOverrides(root, overrides);
     obm::slam::SlamConfig cfg = obm::slam::SlamConfig::load(root);

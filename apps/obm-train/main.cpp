@@ -101,6 +101,7 @@ int main(int argc, char** argv) {
     }
 
     obm::setLogLevel(obm::parseLogLevel(log_level));
+    OBM_LOG_DEBUG("obm-train", "math libraries: " << obm::apps::mathLibrarySettings());
     auto root = obm::ConfigNode::loadFile(config_path);
     obm::applyOverrides(root, overrides);
     // The command-line options are written into the document too, so that OUT/config.yaml is
