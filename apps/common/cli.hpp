@@ -19,7 +19,7 @@ namespace obm::apps {
 /// - OpenMP's waiting workers (LibTorch's and OpenBLAS's thread teams): OMP_WAIT_POLICY=PASSIVE
 ///   unless OMP_WAIT_POLICY or GOMP_SPINCOUNT is set. By default a worker that waits for the
 ///   next parallel region spins on its core; when another process needs that core, the spinning
-///   and the waiting for a descheduled worker made a 2-thread network pass 2.5-3.5 times slower
+///   and the waiting for a descheduled worker made a 2-thread network pass 2-2.7 times slower
 ///   than on one thread (docs/benchmarks.md, "OpenMP's waiting workers"). Sleeping workers cost
 ///   about 10 % on an idle machine and none of that on a busy one.
 /// - OpenBLAS (LibTorch's matrix products on Debian) chooses its kernels by the CPU's model and
@@ -31,7 +31,8 @@ namespace obm::apps {
 void useFastMathLibraries(char** argv);
 
 /// The settings useFastMathLibraries manages, as the process runs with them, for a log line:
-/// "OMP_WAIT_POLICY=PASSIVE GOMP_SPINCOUNT=(unset) OPENBLAS_CORETYPE=(unset) OpenBLAS core=Haswell".
+/// "OMP_WAIT_POLICY=PASSIVE GOMP_SPINCOUNT=(unset) OPENBLAS_CORETYPE=(unset)
+/// OpenBLAS core=Haswell".
 std::string mathLibrarySettings();
 
 /// Installs the process's SIGINT and SIGTERM handler (SA_RESTART) and returns the flag it sets.
