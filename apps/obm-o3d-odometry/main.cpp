@@ -52,6 +52,8 @@ std::string fixed(double v, int precision) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Open3D's loops use OpenMP: its waiting workers sleep here as in the project's own apps.
+  obm::apps::useFastMathLibraries(argv);
   CLI::App app{
       "obm-o3d-odometry: Open3D's classical frame-to-frame RGB-D odometry on an RGB-D folder, the "
       "peer of obm-map's indoor runs (scripts/bench_slam.sh). Methods: hybrid (Open3D's "
