@@ -87,7 +87,7 @@ const char* fasterBlasCore() {
 void useFastMathLibraries(char** argv) {
   bool changed = false;
   if (std::getenv("OMP_WAIT_POLICY") == nullptr && std::getenv("GOMP_SPINCOUNT") == nullptr)
-    changed |= setenv("OMP_WAIT_POLICY", "PASSIVE", 1) == 0;
+    changed |= setenv("GOMP_SPINCOUNT", "300", 1) == 0;
   if (std::getenv("OPENBLAS_CORETYPE") == nullptr) {  // unset: neither the user nor a first run
     if (const char* core = fasterBlasCore()) changed |= setenv("OPENBLAS_CORETYPE", core, 1) == 0;
   }

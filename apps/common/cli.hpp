@@ -16,13 +16,15 @@ namespace obm::apps {
 /// Settings of the math libraries that are read only when the libraries are loaded, so that
 /// they must be in the environment before the program starts; when one is missing, this sets it
 /// and runs the program again with the same arguments (once). Call it first in main().
-/// - OpenMP's waiting workers (LibTorch's and OpenBLAS's thread teams): OMP_WAIT_POLICY=PASSIVE
-///   unless OMP_WAIT_POLICY or GOMP_SPINCOUNT is set. By default a worker that waits for the
-///   next parallel region spins on its core; when another process needs that core, the spinning
-///   and the waiting for a descheduled worker made a 2-thread network pass 2-2.7 times slower
-///   than on one thread (docs/benchmarks.md, "OpenMP's waiting workers"). Sleeping workers cost
-///   a network pass about 10 % on an idle machine; obm-map, whose ICP runs on threads of its
-///   own, maps 30-50 % more frames per second with them, idle or not.
+/// - OpenMP's waiting workers (LibTorch's, OpenBLAS's and Open3D's thread teams):
+///   GOMP_SPINCOUNT=300 unless OMP_WAIT_POLICY or GOMP_SPINCOUNT is set. By default libgomp lets
+///   a worker that waits for the next parallel region spin for up to 300 000 rounds; when another
+///   process needs that core, the spinning and the waiting for a descheduled worker made a
+///   2-thread network pass 2-3 times slower, and obm-map, whose ICP runs on threads of its own,
+///   lost a quarter of its frame rate even on an idle machine. A short spin keeps the speed of
+///   back-to-back parallel regions on an idle machine (sleeping at once, OMP_WAIT_POLICY=PASSIVE,
+///   made the realistic object model's pass a third slower there) and gives the cores away
+///   soon after (docs/benchmarks.md, "OpenMP's waiting workers").
 /// - OpenBLAS (LibTorch's matrix products on Debian) chooses its kernels by the CPU's model and
 ///   falls back to the oldest (Prescott, SSE3) on a model it does not know, as virtual machines
 ///   that report a generic "Intel Xeon Processor" are: the network's matrix products then run
@@ -32,7 +34,7 @@ namespace obm::apps {
 void useFastMathLibraries(char** argv);
 
 /// The settings useFastMathLibraries manages, as the process runs with them, for a log line:
-/// "OMP_WAIT_POLICY=PASSIVE GOMP_SPINCOUNT=(unset) OPENBLAS_CORETYPE=(unset)
+/// "OMP_WAIT_POLICY=(unset) GOMP_SPINCOUNT=300 OPENBLAS_CORETYPE=(unset)
 /// OpenBLAS core=Haswell".
 std::string mathLibrarySettings();
 

@@ -52,7 +52,7 @@ std::string fixed(double v, int precision) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  // Open3D's loops use OpenMP: its waiting workers sleep here as in the project's own apps.
+  // Open3D's loops use OpenMP: its waiting workers spin briefly, as in the project's own apps.
   obm::apps::useFastMathLibraries(argv);
   CLI::App app{
       "obm-o3d-odometry: Open3D's classical frame-to-frame RGB-D odometry on an RGB-D folder, the "
