@@ -132,12 +132,10 @@ run_tool() {
 run_map() { local name=$1; shift; run_tool "$name" obm-map "$MAP" timing.json "$@"; }
 
 # run_peer NAME METHOD INPUT: obm-o3d-odometry --method METHOD on INPUT into OUT/runs/NAME.
-# Open3D's loops are OpenMP, whose threads spin while they wait by default: on 2 cores with
-# anything else running that made the hybrid odometry 2.5x slower (1.5 against 3.8 frames/s), so
-# they wait passively unless OMP_WAIT_POLICY is set.
+# Open3D's loops are OpenMP; the tool shortens their threads' spin itself, as obm-map does
+# (docs/obm-o3d-odometry.md), so a busy second core does not slow it down.
 run_peer() {
-  OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-PASSIVE} \
-    run_tool "$1" obm-o3d-odometry "$O3D" trajectory_tum.txt -i "$3" --method "$2"
+  run_tool "$1" obm-o3d-odometry "$O3D" trajectory_tum.txt -i "$3" --method "$2"
 }
 
 KITTI_CFG=$ROOT/config/map_kitti.yaml

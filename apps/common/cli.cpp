@@ -63,14 +63,19 @@ namespace obm::apps {
 
 namespace {
 
-/// OPENBLAS_CORETYPE for a CPU OpenBLAS did not recognise (useFastMathLibraries), or nullptr.
-const char* fasterBlasCore() {
+/// The kernels OpenBLAS chose ("Haswell", "Prescott", ...), or "" when the BLAS is another.
+std::string openBlasCoreName() {
   using CoreName = char* (*)();
   const auto corename = reinterpret_cast<CoreName>(dlsym(RTLD_DEFAULT, "openblas_get_corename"));
-  if (corename == nullptr) return nullptr;  // another BLAS
-  std::string name = corename();
+  return corename == nullptr ? std::string() : std::string(corename());
+}
+
+/// OPENBLAS_CORETYPE for a CPU OpenBLAS did not recognise (useFastMathLibraries), or nullptr.
+const char* fasterBlasCore() {
+  std::string name = openBlasCoreName();
   for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (name != "prescott") return nullptr;  // a known CPU: OpenBLAS's own choice stands
+  // Another BLAS (""), or a known CPU: OpenBLAS's own choice stands.
+  if (name != "prescott") return nullptr;
 #if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
   __builtin_cpu_init();
   if (!(__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))) return nullptr;
@@ -102,9 +107,8 @@ std::string mathLibrarySettings() {
     const char* value = std::getenv(name);
     out += std::string(out.empty() ? "" : " ") + name + "=" + (value ? value : "(unset)");
   }
-  using CoreName = char* (*)();
-  const auto corename = reinterpret_cast<CoreName>(dlsym(RTLD_DEFAULT, "openblas_get_corename"));
-  out += std::string(" OpenBLAS core=") + (corename ? corename() : "(not OpenBLAS)");
+  const std::string core = openBlasCoreName();
+  out += " OpenBLAS core=" + (core.empty() ? std::string("(not OpenBLAS)") : core);
   return out;
 }
 

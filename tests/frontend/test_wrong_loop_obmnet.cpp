@@ -6,14 +6,15 @@
 // (DCS, Φ = 1000) the graph keeps the odometry, with plain least squares the edge drags it.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <string>
 #include <vector>
 
 #include "edge_information.hpp"
+#include "lidar_settings.hpp"
 #include "obm/backend/optimizer.hpp"
 #include "obm/backend/pose_graph.hpp"
-#include "obm/core/cloud_ops.hpp"
 #include "obm/frontend/params.hpp"
 #include "obm/io/kitti.hpp"
 #include "obm/io/point_cloud_io.hpp"
@@ -24,11 +25,6 @@
 namespace obm::frontend {
 namespace {
 
-/// A sweep as the LiDAR models see it: 2–50 m, 0.3 m voxels.
-PointCloud lidarCloud(const PointCloud& raw) {
-  return voxelDownsample(cropRange(raw, 2.0, 50.0), 0.3);
-}
-
 TEST(FrontendObmNet, AWrongLoopOfTheNetworkMatcherIsSwitchedOffByTheRobustBackEnd) {
   OBM_REQUIRE_SHARED_DATA("kitti/raw_drive_22/velodyne/000010.bin");
   OBM_REQUIRE_SHARED_DATA("real_pairs/lidar_small_gicp/source.ply");
@@ -36,14 +32,10 @@ TEST(FrontendObmNet, AWrongLoopOfTheNetworkMatcherIsSwitchedOffByTheRobustBackEn
   constexpr int kNodes = 11;  // sweeps 0..10, ~8 m of street
   std::vector<PointCloud> sweeps;
   for (int i = 0; i < kNodes; ++i)
-    sweeps.push_back(lidarCloud(io::readKittiVelodyne(d + io::kittiScanFileName(i))));
+    sweeps.push_back(test::lidarCloud(io::readKittiVelodyne(d + io::kittiScanFileName(i))));
 
-  registration::IcpParams icp;
-  icp.max_correspondence_distance = 1.0;
-  icp.initial_max_correspondence_distance = 1.0;
-  icp.kernel_scale = 0.2;
-  registration::ConfidenceParams conf;
-  conf.inlier_threshold = 0.3;
+  const registration::IcpParams icp = test::lidarIcp();
+  const registration::ConfidenceParams conf = test::lidarConfidence();
   const registration::IcpMatcher odometry(icp, conf);
   Isometry3d step = Isometry3d::Identity();
   step.translation() = Eigen::Vector3d(0.8, 0.0, 0.0);
@@ -76,7 +68,7 @@ TEST(FrontendObmNet, AWrongLoopOfTheNetworkMatcherIsSwitchedOffByTheRobustBackEn
   net.pre_align = false;
   net.keep_init_if_better = false;
   const registration::ObmNetIcpMatcher matcher(net, icp, conf);
-  const PointCloud elsewhere = lidarCloud(io::readPointCloud(
+  const PointCloud elsewhere = test::lidarCloud(io::readPointCloud(
       test::sharedDataDir() + "/real_pairs/lidar_small_gicp/source.ply"));
   const registration::MatchResult wrong = matcher.match(elsewhere, sweeps[0]);
   const LoopClosureParams loops;

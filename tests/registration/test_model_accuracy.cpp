@@ -42,6 +42,7 @@
 #include "obm/sim/lidar.hpp"
 #include "obm/sim/scene.hpp"
 #include "obm/sim/simulator.hpp"
+#include "lidar_settings.hpp"
 #include "scenes.hpp"
 #include "seed_five_drive.hpp"
 #include "test_data.hpp"
@@ -68,24 +69,9 @@ registration::ObmNetMatcherParams netParams(const std::string& model) {
   return p;
 }
 
-/// A LiDAR sweep as the LiDAR models see it: 2–50 m, 0.3 m voxels.
-PointCloud lidarCloud(const PointCloud& raw) {
-  return voxelDownsample(cropRange(raw, 2.0, 50.0), 0.3);
-}
-
-/// ICP and confidence settings of the LiDAR accuracy tests (metres).
-registration::IcpParams lidarIcp() {
-  registration::IcpParams icp;
-  icp.max_correspondence_distance = 1.0;
-  icp.initial_max_correspondence_distance = 1.0;
-  icp.kernel_scale = 0.2;
-  return icp;
-}
-registration::ConfidenceParams lidarConfidence() {
-  registration::ConfidenceParams conf;
-  conf.inlier_threshold = 0.3;
-  return conf;
-}
+using test::lidarCloud;
+using test::lidarConfidence;
+using test::lidarIcp;
 
 /// The real outdoor LiDAR pair of the shared data (`real_pairs/lidar_small_gicp`) as the LiDAR
 /// models see it, with its reference pose T_target_source.
