@@ -2,6 +2,7 @@
 // peers, on generated object pairs or on a folder of pairs. See docs/obm-bench.md.
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -71,6 +72,8 @@ struct NetRun {
   double free_space = 0.0;
   /// λ of the free-space ranking of the network's yaw hypotheses (--free-space-hypotheses).
   double free_space_hypotheses = 0.0;
+  /// β of the starts' choice: confidence × (share of source inliers)^β (--choice-inliers).
+  double choice_inliers = 0.0;
   /// The range images of both (a LiDAR's by default, a depth camera's for rgbd_frames).
   registration::FreeSpaceParams free_space_params;
 };
@@ -229,6 +232,7 @@ registration::ObmNetMatcherParams obmnetIcpParams(const NetRun& net, double unit
   p.overlap_stage_keep = overlap_keep;
   p.choice_free_space_weight = net.free_space;
   p.hypothesis_free_space_weight = net.free_space_hypotheses;
+  p.choice_inlier_power = net.choice_inliers;
   p.free_space = net.free_space_params;
   return p;
 }
@@ -318,21 +322,27 @@ bench::Method icpTurnsMethod(std::shared_ptr<const registration::ScanMatcher> ic
 /// A classical global start for the network (`obmnet+icp-turns+fgr`): the network + ICP from
 /// its own starts (`turns`, from the identity) and from a global method's pose (`global`, e.g.
 /// Open3D's FGR; `from_start` sees the source moved by it and corrects it), keeping the result
-/// with the higher bias-weighted confidence. What the network and its confidence add to a
-/// feature-based start. Without `turns` (`obmnet+icp@fgr`): the network + ICP from the global
-/// pose alone.
+/// with the higher bias-weighted confidence (times the inlier ratio to the power
+/// `choice_inliers`, as the matcher's own starts compete: ObmNetMatcherParams::
+/// choice_inlier_power). What the network and its confidence add to a feature-based start.
+/// Without `turns` (`obmnet+icp@fgr`): the network + ICP from the global pose alone.
 bench::Method globalStartMethod(const std::string& name,
                                 std::shared_ptr<const registration::ScanMatcher> turns,
                                 std::shared_ptr<const registration::ScanMatcher> from_start,
-                                bench::Method global) {
-  return {name, [turns, from_start, global](const PointCloud& s, const PointCloud& t) {
+                                bench::Method global, double choice_inliers) {
+  return {name, [turns, from_start, global, choice_inliers](const PointCloud& s,
+                                                            const PointCloud& t) {
             const Isometry3d T_global = global.fn(s, t).T_target_source;
             registration::MatchResult b = from_start->match(s, t, T_global);
             if (!turns) return matchResult(b);
             registration::MatchResult a = turns->match(s, t, Isometry3d::Identity());
+            auto score = [choice_inliers](const registration::MatchResult& r) {
+              return r.network_confidence *
+                     (choice_inliers > 0.0 ? std::pow(r.inlier_ratio, choice_inliers) : 1.0);
+            };
             const bool take_b = b.status != registration::MatchStatus::TooFewCorrespondences &&
                                 b.status != registration::MatchStatus::TooFewPoints &&
-                                b.network_confidence > a.network_confidence;
+                                score(b) > score(a);
             return matchResult(take_b ? b : a);
           }};
 }
@@ -614,6 +624,7 @@ int main(int argc, char** argv) {
   double search_cell = 0.0;
   double search_step = 0.0;
   double choice_plane = -1.0;
+  double choice_inliers = -1.0;
   double free_space = -1.0;
   double free_space_hypotheses = 0.0;
   double start_heading_margin = -1.0;
@@ -660,6 +671,13 @@ int main(int argc, char** argv) {
                  "--unit] of the target's tangent planes (ObmNetMatcherParams::"
                  "choice_plane_distance; search+icp: its inliers within it); 0 = the confidence's "
                  "inlier threshold (default: 0.01 for object and fragment pairs, else 0)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--choice-inliers", choice_inliers,
+                 "the network rows with several starts (start turns, FGR's pose, the search's "
+                 "poses): they compete on the bias-weighted confidence times the share of all "
+                 "source points that are inliers at the pose, to this power "
+                 "(ObmNetMatcherParams::choice_inlier_power); 0 = the confidence alone "
+                 "(default: 1 for rgbd_frames, else 0)")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--free-space", free_space,
                  "sensor sweeps: weight λ of the free-space test (docs/registration.md, \"Free "
@@ -977,6 +995,10 @@ int main(int argc, char** argv) {
     net.yaw_hypotheses = yaw_hypotheses;
     net.free_space = free_space;
     net.free_space_hypotheses = free_space_hypotheses;
+    // Depth frame pairs: a pose turned onto another wall can land the network's heaviest points
+    // and leave most of the frame unpaired (docs/obm-bench.md, "The search's defaults").
+    if (choice_inliers < 0.0) choice_inliers = protocol == "rgbd_frames" ? 1.0 : 0.0;
+    net.choice_inliers = choice_inliers;
     // LiDAR sweeps: the heading the pair is given in is kept unless another hypothesis's
     // consensus is clearly larger, and the pair as given is kept when the network's matches
     // agree on no hypothesis (docs/obm-bench.md, "The start's heading and the consensus floor").
@@ -1122,8 +1144,9 @@ int main(int argc, char** argv) {
             const auto from_fgr = obmnetIcpMatcher(at_fgr, unit, finish);
             methods.push_back(globalStartMethod(
                 "obmnet+icp-turns+fgr", obmnetIcpMatcher(net_t, unit, finish, overlap_keep),
-                from_fgr, m));
-            methods.push_back(globalStartMethod("obmnet+icp@fgr", nullptr, from_fgr, m));
+                from_fgr, m, net.choice_inliers));
+            methods.push_back(
+                globalStartMethod("obmnet+icp@fgr", nullptr, from_fgr, m, net.choice_inliers));
             // The correlative search's poses as more starts of the matcher, beside its turns
             // and FGR's pose (on request).
             if (!methods_arg.empty()) {
@@ -1134,7 +1157,7 @@ int main(int argc, char** argv) {
               turns_search.choice_plane_distance = choice_plane * unit;
               methods.push_back(globalStartMethod("obmnet+icp-turns+fgr+search",
                                                   obmnetIcpMatcher(turns_search, unit, finish),
-                                                  from_fgr, m));
+                                                  from_fgr, m, net.choice_inliers));
             }
             // The classical chain with the project's refinement after FGR (the ICP after the
             // network, its narrow gate: from the `icp` row's 0.5-unit gate good FGR poses slid

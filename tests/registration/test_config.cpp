@@ -145,6 +145,8 @@ TEST(RegistrationConfig, ErrorsNameFileAndKey) {
                     "obmnet.choice_plane_distance");
   expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, choice_free_space_weight: -1}",
                     "obmnet.choice_free_space_weight");
+  expectConfigError("type: obmnet+icp\nobmnet: {model_path: m.pt, choice_inlier_power: -1}",
+                    "obmnet.choice_inlier_power");
   expectConfigError(
       "type: obmnet+icp\nobmnet: {model_path: m.pt, hypothesis_free_space_weight: -1}",
       "obmnet.hypothesis_free_space_weight");
@@ -185,7 +187,7 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
       "ransac_candidates: 2, ransac_inlier_spacing: 1.5, ransac_max_turn_deg: 30, "
       "select_by_consensus: false, start_heading_margin: 1.25, spatial_sigma: 0.05, start_turn_deg: 25, start_turn_axes: zx, "
       "search_candidates: 3, search: {axis: y, heading_range_deg: 90, translation_range: 2, "
-      "cell: 0.2, align_centroids: true}, choice_plane_distance: 0.02, "
+      "cell: 0.2, align_centroids: true}, choice_plane_distance: 0.02, choice_inlier_power: 2, "
       "choice_free_space_weight: 8, hypothesis_free_space_weight: 3, "
       "free_space: {sensor: camera, azimuth_step_deg: 3, elevation_step_deg: 1.5, relative_margin: 0.2, "
       "min_range: 2}}"));
@@ -197,6 +199,8 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
   EXPECT_TRUE(s.obmnet.search.align_centroids);
   EXPECT_DOUBLE_EQ(s.obmnet.choice_plane_distance, 0.02);
   EXPECT_DOUBLE_EQ(c.obmnet.choice_plane_distance, 0.0);  // the shipped YAML: off
+  EXPECT_DOUBLE_EQ(s.obmnet.choice_inlier_power, 2.0);
+  EXPECT_DOUBLE_EQ(c.obmnet.choice_inlier_power, 0.0);  // the shipped YAML: off
   EXPECT_DOUBLE_EQ(s.obmnet.choice_free_space_weight, 8.0);
   EXPECT_DOUBLE_EQ(s.obmnet.hypothesis_free_space_weight, 3.0);
   EXPECT_DOUBLE_EQ(c.obmnet.hypothesis_free_space_weight, 0.0);

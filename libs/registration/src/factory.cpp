@@ -39,6 +39,7 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
                   "search_candidates",
                   "search",
                   "choice_plane_distance",
+                  "choice_inlier_power",
                   "choice_free_space_weight",
                   "hypothesis_free_space_weight",
                   "free_space"});
@@ -101,6 +102,9 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
   node.get("choice_plane_distance", p.choice_plane_distance);
   if (!(p.choice_plane_distance >= 0.0))
     throw ConfigError(node.where("choice_plane_distance") + ": must be >= 0 (0 = off)");
+  node.get("choice_inlier_power", p.choice_inlier_power);
+  if (!(p.choice_inlier_power >= 0.0))
+    throw ConfigError(node.where("choice_inlier_power") + ": must be >= 0 (0 = off)");
   node.get("choice_free_space_weight", p.choice_free_space_weight);
   if (!(p.choice_free_space_weight >= 0.0))
     throw ConfigError(node.where("choice_free_space_weight") + ": must be >= 0 (0 = off)");

@@ -280,6 +280,8 @@ ObmNetIcpMatcher::ObmNetIcpMatcher(const ObmNetMatcherParams& params, const IcpP
     throw ConfigError("obmnet matcher: choice_plane_distance must be >= 0 (0 = off)");
   if (!(params.choice_free_space_weight >= 0.0))
     throw ConfigError("obmnet matcher: choice_free_space_weight must be >= 0 (0 = off)");
+  if (!(params.choice_inlier_power >= 0.0))
+    throw ConfigError("obmnet matcher: choice_inlier_power must be >= 0 (0 = off)");
   if (!(params.hypothesis_free_space_weight >= 0.0))
     throw ConfigError("obmnet matcher: hypothesis_free_space_weight must be >= 0 (0 = off)");
   if (params.choice_free_space_weight > 0.0 || params.hypothesis_free_space_weight > 0.0)
@@ -453,10 +455,25 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
   // Further starts compete on the share of the network's SVD weight that lands on the target
   // (the bias-weighted confidence), which tells a start that arrived from one that did not
   // better than ICP's counts (docs/registration.md); with the free-space choice, discounted by
-  // the pose's conflicts.
+  // the pose's conflicts; with choice_inlier_power, times the share of the whole source's
+  // inliers (coloured where the pair has colours) to that power.
+  const std::vector<float> source_grey =
+      p.choice_inlier_power > 0.0 || p.search_candidates > 0
+          ? colorIntensities(source, target, icp_)
+          : std::vector<float>();
   auto score = [&](const Refinement& r) {
     if (!r.net.ok || r.result.status == MatchStatus::TooFewCorrespondences) return -1.0;
-    return biasWeightedConfidence(r.net, target, r.result.T_target_source, icp_, confidence_,
+    double inlier_factor = 1.0;
+    if (p.choice_inlier_power > 0.0 && !source.empty()) {
+      const AlignmentStats all =
+          evaluateAlignment(source.points, nullptr, target, r.result.T_target_source, icp_,
+                            confidence_, source_grey.empty() ? nullptr : &source_grey);
+      inlier_factor = std::pow(static_cast<double>(all.num_inliers) /
+                                   static_cast<double>(source.size()),
+                               p.choice_inlier_power);
+    }
+    return inlier_factor *
+           biasWeightedConfidence(r.net, target, r.result.T_target_source, icp_, confidence_,
                                   p.choice_plane_distance) *
            freeSpaceDiscount(check, p.choice_free_space_weight, r.result.T_target_source);
   };
@@ -492,12 +509,10 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
     // on the simulated frame pairs, registers the same pairs (docs/benchmarks.md).
     CorrelativeSearchParams sp = p.search;
     sp.candidates = p.search_candidates;
-    const std::vector<float> grey = colorIntensities(source, target, icp_);
-    const std::vector<float>* source_grey = grey.empty() ? nullptr : &grey;
+    const std::vector<float>* grey = source_grey.empty() ? nullptr : &source_grey;
     for (const SearchHit& hit :
          correlativeSearch(source, target.cloud(), sp, T_target_source_init)) {
-      const IcpOutcome o =
-          runIcp(source.points, target, hit.T_target_source, icp_, nullptr, source_grey);
+      const IcpOutcome o = runIcp(source.points, target, hit.T_target_source, icp_, nullptr, grey);
       Refinement r{o.toMatchResult(), first_net};
       const double s = score(r);
       if (s <= best_score) continue;

@@ -127,6 +127,14 @@ struct ObmNetMatcherParams {
   /// scale only the right one lies on it (docs/registration.md, "Correlative search"). The
   /// returned confidence is always the usual one.
   double choice_plane_distance = 0.0;
+  /// ObmNetIcpMatcher with start turns or the search (0 = off): the starts' refinements compete
+  /// on the bias-weighted confidence times s^β, β this power and s the share of the whole
+  /// source's points that are inliers at the pose (coloured inliers where the pair has colours).
+  /// The confidence counts the network's points, weighted by where the module places the
+  /// overlap; s counts every point alike. A pose turned onto another wall can land the
+  /// network's heaviest points and still leave most of the frame unpaired (depth frame pairs:
+  /// docs/benchmarks.md, "Choosing among the starts"). The returned confidence is the usual one.
+  double choice_inlier_power = 0.0;
   /// ObmNetIcpMatcher on sensor sweeps, free space (free_space.hpp; 0 = off): every competition
   /// among refined poses (the yaw hypotheses, the blind headings, the start turns, the search's
   /// poses) multiplies a pose's score by max(0, 1 − λ·r), with λ this weight and r the share of
