@@ -961,7 +961,7 @@ int main(int argc, char** argv) {
     // jittered protocols) only the right one lies on it (docs/obm-bench.md).
     if (choice_plane < 0.0) choice_plane = sensor_frames ? 0.0 : 0.01;
     // LiDAR sweeps: slides along a street a block apart, and the free space to tell them apart
-    // (docs/obm-bench.md, "The search's defaults").
+    // (docs/obm-bench.md, "The correlative search").
     if (free_space < 0.0) free_space = protocol == "kitti" ? 8.0 : 0.0;
     if (protocol == "kitti") search.min_separation_m = 5.0;
     search.seed = seed;
@@ -996,12 +996,13 @@ int main(int argc, char** argv) {
     net.free_space = free_space;
     net.free_space_hypotheses = free_space_hypotheses;
     // Depth frame pairs: a pose turned onto another wall can land the network's heaviest points
-    // and leave most of the frame unpaired (docs/obm-bench.md, "The search's defaults").
+    // and leave most of the frame unpaired (docs/benchmarks.md, "Choosing among the starts of
+    // frame pairs").
     if (choice_inliers < 0.0) choice_inliers = protocol == "rgbd_frames" ? 1.0 : 0.0;
     net.choice_inliers = choice_inliers;
     // LiDAR sweeps: the heading the pair is given in is kept unless another hypothesis's
     // consensus is clearly larger, and the pair as given is kept when the network's matches
-    // agree on no hypothesis (docs/obm-bench.md, "The start's heading and the consensus floor").
+    // agree on no hypothesis (docs/benchmarks.md, "The start's heading and a consensus floor").
     if (start_heading_margin < 0.0) start_heading_margin = protocol == "kitti" ? 1.25 : 1.0;
     if (min_consensus < 0.0) min_consensus = protocol == "kitti" ? 0.06 : 0.0;
     net.start_heading_margin = start_heading_margin;

@@ -133,7 +133,8 @@ struct ObmNetMatcherParams {
   /// The confidence counts the network's points, weighted by where the module places the
   /// overlap; s counts every point alike. A pose turned onto another wall can land the
   /// network's heaviest points and still leave most of the frame unpaired (depth frame pairs:
-  /// docs/benchmarks.md, "Choosing among the starts"). The returned confidence is the usual one.
+  /// docs/benchmarks.md, "Choosing among the starts of frame pairs"). The returned confidence
+  /// is the usual one.
   double choice_inlier_power = 0.0;
   /// ObmNetIcpMatcher on sensor sweeps, free space (free_space.hpp; 0 = off): every competition
   /// among refined poses (the yaw hypotheses, the blind headings, the start turns, the search's
