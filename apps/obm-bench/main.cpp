@@ -2,7 +2,6 @@
 // peers, on generated object pairs or on a folder of pairs. See docs/obm-bench.md.
 #include <CLI/CLI.hpp>
 #include <algorithm>
-#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -337,8 +336,8 @@ bench::Method globalStartMethod(const std::string& name,
             if (!turns) return matchResult(b);
             registration::MatchResult a = turns->match(s, t, Isometry3d::Identity());
             auto score = [choice_inliers](const registration::MatchResult& r) {
-              return r.network_confidence *
-                     (choice_inliers > 0.0 ? std::pow(r.inlier_ratio, choice_inliers) : 1.0);
+              return registration::startChoiceScore(r.network_confidence, r.inlier_ratio,
+                                                    choice_inliers);
             };
             const bool take_b = b.status != registration::MatchStatus::TooFewCorrespondences &&
                                 b.status != registration::MatchStatus::TooFewPoints &&

@@ -463,18 +463,16 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
           : std::vector<float>();
   auto score = [&](const Refinement& r) {
     if (!r.net.ok || r.result.status == MatchStatus::TooFewCorrespondences) return -1.0;
-    double inlier_factor = 1.0;
-    if (p.choice_inlier_power > 0.0 && !source.empty()) {
-      const AlignmentStats all =
-          evaluateAlignment(source.points, nullptr, target, r.result.T_target_source, icp_,
-                            confidence_, source_grey.empty() ? nullptr : &source_grey);
-      inlier_factor = std::pow(static_cast<double>(all.num_inliers) /
-                                   static_cast<double>(source.size()),
-                               p.choice_inlier_power);
-    }
-    return inlier_factor *
-           biasWeightedConfidence(r.net, target, r.result.T_target_source, icp_, confidence_,
-                                  p.choice_plane_distance) *
+    const double confidence = biasWeightedConfidence(r.net, target, r.result.T_target_source,
+                                                     icp_, confidence_, p.choice_plane_distance);
+    // The inlier share only when it counts (one pass over the whole source per start).
+    const double share =
+        p.choice_inlier_power > 0.0
+            ? evaluateAlignment(source.points, nullptr, target, r.result.T_target_source, icp_,
+                                confidence_, source_grey.empty() ? nullptr : &source_grey)
+                  .inlier_ratio
+            : 1.0;
+    return startChoiceScore(confidence, share, p.choice_inlier_power) *
            freeSpaceDiscount(check, p.choice_free_space_weight, r.result.T_target_source);
   };
   double best_score = p.start_turn_deg > 0.0 || p.search_candidates > 0 ? score(best) : -1.0;
@@ -663,6 +661,10 @@ std::string startTurnAxesError(const std::string& axes) {
     if (axes.find(axes[i]) != i) return std::string("axis '") + axes[i] + "' named twice";
   }
   return {};
+}
+
+double startChoiceScore(double confidence, double inlier_share, double inlier_power) {
+  return inlier_power > 0.0 ? confidence * std::pow(inlier_share, inlier_power) : confidence;
 }
 
 std::vector<Isometry3d> startTurns(double deg, const std::string& axes) {

@@ -167,6 +167,11 @@ std::string startTurnAxesError(const std::string& axes);
 /// its origin). Empty when deg is 0.
 std::vector<Isometry3d> startTurns(double deg, const std::string& axes);
 
+/// The score on which refined starts compete (ObmNetMatcherParams::choice_inlier_power):
+/// `confidence` · `inlier_share`^`inlier_power`, the confidence alone when the power is 0. For a
+/// returned MatchResult: startChoiceScore(r.network_confidence, r.inlier_ratio, β).
+double startChoiceScore(double confidence, double inlier_share, double inlier_power);
+
 /// Whether this build has the OBMNet matchers (LibTorch); without it they throw ConfigError.
 bool obmNetAvailable() noexcept;
 
