@@ -7,6 +7,7 @@
 #include <cmath>
 #include <numeric>
 #include <optional>
+#include <string>
 
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
@@ -461,7 +462,7 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
       p.choice_inlier_power > 0.0 || p.search_candidates > 0
           ? colorIntensities(source, target, icp_)
           : std::vector<float>();
-  auto score = [&](const Refinement& r) {
+  auto score = [&](const Refinement& r, const std::string& what) {
     if (!r.net.ok || r.result.status == MatchStatus::TooFewCorrespondences) return -1.0;
     const double confidence = biasWeightedConfidence(r.net, target, r.result.T_target_source,
                                                      icp_, confidence_, p.choice_plane_distance);
@@ -472,16 +473,29 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
                                 confidence_, source_grey.empty() ? nullptr : &source_grey)
                   .inlier_ratio
             : 1.0;
-    return startChoiceScore(confidence, share, p.choice_inlier_power) *
-           freeSpaceDiscount(check, p.choice_free_space_weight, r.result.T_target_source);
+    const double discount =
+        freeSpaceDiscount(check, p.choice_free_space_weight, r.result.T_target_source);
+    const double s = startChoiceScore(confidence, share, p.choice_inlier_power) * discount;
+    // One line per refined start (obm-bench --log-level debug): which start won, and why.
+    const Isometry3d moved = T_target_source_init.inverse() * r.result.T_target_source;
+    OBM_LOG_DEBUG("registration", "obmnet+icp start " << what << ": "
+                                      << rotationAngle(moved.linear()) * kRadToDeg << " deg, "
+                                      << moved.translation().norm()
+                                      << " from the guess; confidence " << confidence
+                                      << ", inlier share " << share << ", free-space factor "
+                                      << discount << ", score " << s);
+    return s;
   };
-  double best_score = p.start_turn_deg > 0.0 || p.search_candidates > 0 ? score(best) : -1.0;
+  double best_score =
+      p.start_turn_deg > 0.0 || p.search_candidates > 0 ? score(best, "from the pair") : -1.0;
   const NetworkStage first_net = p.search_candidates > 0 ? best.net : NetworkStage();
   if (p.start_turn_deg > 0.0) {
     // More starts: the source turned about its origin, p' = R·p, so the network (pre-aligned
     // by the guess or not) sees the pair from elsewhere; a pose T' of the turned source is the
     // pose T'·R of the source.
+    int turn_index = 0;
     for (const Isometry3d& turn : startTurns(p.start_turn_deg, p.start_turn_axes)) {
+      ++turn_index;
       const PointCloud turned = source.transformed(turn, source.frame_id);
       // The turn is about the sensor's origin, so the turned sweep has its own free space.
       std::optional<FreeSpaceCheck> turned_check;
@@ -493,7 +507,7 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
       r.result.T_target_source = r.result.T_target_source * turn;
       const Eigen::Matrix3f R_back = turn.linear().transpose().cast<float>();
       for (auto& q : r.net.sampled) q = R_back * q;
-      const double s = score(r);
+      const double s = score(r, "turn " + std::to_string(turn_index));
       if (s <= best_score) continue;
       best = std::move(r);
       best_score = s;
@@ -508,11 +522,12 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
     CorrelativeSearchParams sp = p.search;
     sp.candidates = p.search_candidates;
     const std::vector<float>* grey = source_grey.empty() ? nullptr : &source_grey;
+    int hit_index = 0;
     for (const SearchHit& hit :
          correlativeSearch(source, target.cloud(), sp, T_target_source_init)) {
       const IcpOutcome o = runIcp(source.points, target, hit.T_target_source, icp_, nullptr, grey);
       Refinement r{o.toMatchResult(), first_net};
-      const double s = score(r);
+      const double s = score(r, "search pose " + std::to_string(++hit_index));
       if (s <= best_score) continue;
       best = std::move(r);
       best_score = s;
