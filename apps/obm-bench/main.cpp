@@ -945,11 +945,9 @@ int main(int argc, char** argv) {
                   : protocol == "kitti" ? 1.0
                   : !sensor_frames      ? 0.1 * unit
                                         : search.translation_range / 10.0;
-    // Every rotation of an object: more poses near the top (a turn 10° off can score below a
-    // wrong one), one translation per turn.
-    // Depth frames far apart (turned by 30° or more) often have the right place below the
-    // search's eighth pose: 16 (docs/benchmarks.md, "Frame pairs far apart: more of the search's
-    // poses").
+    // Poses handed on: every rotation of an object, 32 (a turn 10° off can score below a wrong
+    // one), one translation per turn; depth frames far apart, 16 (the right place can rank below
+    // the eighth pose: docs/benchmarks.md, "Frame pairs far apart: more of the search's poses").
     search.candidates = search_candidates > 0  ? search_candidates
                         : protocol == "kitti" ? 8
                         : sensor_frames       ? 16
