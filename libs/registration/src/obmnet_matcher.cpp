@@ -462,7 +462,8 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
       p.choice_inlier_power > 0.0 || p.search_candidates > 0
           ? colorIntensities(source, target, icp_)
           : std::vector<float>();
-  auto score = [&](const Refinement& r, const std::string& what) {
+  // `kind` and `index` name the start in the debug line only (index 0: none).
+  auto score = [&](const Refinement& r, const char* kind, int index) {
     if (!r.net.ok || r.result.status == MatchStatus::TooFewCorrespondences) return -1.0;
     const double confidence = biasWeightedConfidence(r.net, target, r.result.T_target_source,
                                                      icp_, confidence_, p.choice_plane_distance);
@@ -476,18 +477,27 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
     const double discount =
         freeSpaceDiscount(check, p.choice_free_space_weight, r.result.T_target_source);
     const double s = startChoiceScore(confidence, share, p.choice_inlier_power) * discount;
-    // One line per refined start (obm-bench --log-level debug): which start won, and why.
-    const Isometry3d moved = T_target_source_init.inverse() * r.result.T_target_source;
-    OBM_LOG_DEBUG("registration", "obmnet+icp start " << what << ": "
-                                      << rotationAngle(moved.linear()) * kRadToDeg << " deg, "
-                                      << moved.translation().norm()
+    // One line per refined start (obm-bench --log-level debug): which start won, and why. The
+    // macro evaluates its expression only at that level.
+    OBM_LOG_DEBUG("registration",
+                  "obmnet+icp start " << kind << (index > 0 ? " " + std::to_string(index) : "")
+                                      << ": "
+                                      << rotationAngle(T_target_source_init.linear().transpose() *
+                                                       r.result.T_target_source.linear()) *
+                                             kRadToDeg
+                                      << " deg, "
+                                      << (r.result.T_target_source.translation() -
+                                          T_target_source_init.translation())
+                                             .norm()
                                       << " from the guess; confidence " << confidence
-                                      << ", inlier share " << share << ", free-space factor "
-                                      << discount << ", score " << s);
+                                      << ", inlier share "
+                                      << (p.choice_inlier_power > 0.0 ? std::to_string(share)
+                                                                      : "not counted")
+                                      << ", free-space factor " << discount << ", score " << s);
     return s;
   };
   double best_score =
-      p.start_turn_deg > 0.0 || p.search_candidates > 0 ? score(best, "from the pair") : -1.0;
+      p.start_turn_deg > 0.0 || p.search_candidates > 0 ? score(best, "from the pair", 0) : -1.0;
   const NetworkStage first_net = p.search_candidates > 0 ? best.net : NetworkStage();
   if (p.start_turn_deg > 0.0) {
     // More starts: the source turned about its origin, p' = R·p, so the network (pre-aligned
@@ -507,7 +517,7 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
       r.result.T_target_source = r.result.T_target_source * turn;
       const Eigen::Matrix3f R_back = turn.linear().transpose().cast<float>();
       for (auto& q : r.net.sampled) q = R_back * q;
-      const double s = score(r, "turn " + std::to_string(turn_index));
+      const double s = score(r, "turn", turn_index);
       if (s <= best_score) continue;
       best = std::move(r);
       best_score = s;
@@ -527,7 +537,7 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
          correlativeSearch(source, target.cloud(), sp, T_target_source_init)) {
       const IcpOutcome o = runIcp(source.points, target, hit.T_target_source, icp_, nullptr, grey);
       Refinement r{o.toMatchResult(), first_net};
-      const double s = score(r, "search pose " + std::to_string(++hit_index));
+      const double s = score(r, "search pose", ++hit_index);
       if (s <= best_score) continue;
       best = std::move(r);
       best_score = s;
