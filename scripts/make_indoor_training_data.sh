@@ -6,7 +6,7 @@
 # $OBM_SHARED_DATA/rgbd_open3d.
 # With LABELS=labels, each training walk also gets slam_groundtruth.txt: the trajectory obm-map
 # estimates on it with ICP alone (its trajectory_tum.txt), the self-supervised pose labels of
-# config/obmnet/train_indoor_frames_selfsup.yaml (the simulator's poses only score that run).
+# config/obmnet/train_indoor_frames_prior.yaml (the simulator's poses only score that run).
 #   scripts/make_indoor_training_data.sh [OUT_DIR=runs/indoor_data] [BUILD_DIR=build] [LABELS=labels]
 set -euo pipefail
 out=${1:-runs/indoor_data}

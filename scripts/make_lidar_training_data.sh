@@ -8,7 +8,7 @@
 #            config/obmnet/train_lidar_pairs.yaml
 #   labels   the revisits, plus slam_poses.txt in each training drive: the trajectory obm-map
 #            estimates on it with ICP alone (its trajectory_kitti.txt), the self-supervised pose
-#            labels of config/obmnet/train_lidar_selfsup.yaml (ground truth only scores that run)
+#            labels of config/obmnet/train_lidar_small.yaml (ground truth only scores that run)
 #   scripts/make_lidar_training_data.sh [OUT_DIR=runs/lidar_data] [BUILD_DIR=build] [SET=all|urban|revisits|labels]
 set -euo pipefail
 out=${1:-runs/lidar_data}
