@@ -110,54 +110,6 @@ TEST(PairProtocol, CleanPairIsExactlyTheTransformedSource) {
   EXPECT_LE(p.T_target_source.translation().cwiseAbs().maxCoeff(), 0.5);
 }
 
-TEST(PairProtocol, ScaleAugmentMakesNewShapesOfTheSameRadiusAndKeepsThePairExact) {
-  const auto obj = sphereCloud(1500, 1);
-  auto proto = PairProtocol::preset("clean");
-  proto.scale_augment = 0.3;
-  std::mt19937_64 rng(3);
-  const auto p = makePair(obj, proto, rng);
-  const auto q = makePair(obj, proto, rng);
-  // The unit sphere became an ellipsoid of the same radius: the distances to the centre spread
-  // (a sphere's are all 1), the farthest is still ≈ 1.
-  Vector3f c = Vector3f::Zero();
-  for (const auto& s : p.source.points) c += s;
-  c /= static_cast<float>(p.source.size());
-  float rmin = 1e9f, rmax = 0.0f;
-  for (const auto& s : p.source.points) {
-    rmin = std::min(rmin, (s - c).norm());
-    rmax = std::max(rmax, (s - c).norm());
-  }
-  EXPECT_GT(rmax - rmin, 0.1f);
-  EXPECT_NEAR(rmax, 1.0f, 0.06f);  // about the subset's centroid, not the full cloud's
-  // The target is still exactly the transformed source: one shape per pair.
-  double worst = 0.0;
-  for (const auto& t : p.target.points) {
-    double best = 1e9;
-    for (const auto& s : p.source.points)
-      best = std::min(best, (p.T_target_source * s.cast<double>() - t.cast<double>()).norm());
-    worst = std::max(worst, best);
-  }
-  EXPECT_LT(worst, 1e-5);
-  // Each pair draws its own shape.
-  auto extent = [](const PointCloud& cl) {
-    Vector3f lo = cl.points[0], hi = cl.points[0];
-    for (const auto& s : cl.points) {
-      lo = lo.cwiseMin(s);
-      hi = hi.cwiseMax(s);
-    }
-    return Vector3f(hi - lo);
-  };
-  EXPECT_GT((extent(p.source) - extent(q.source)).norm(), 0.05f);
-  // Out-of-range values are refused naming the key.
-  const auto bad = ConfigNode::fromString("preset: resampled\nscale_augment: 0.8\n", "t.yaml");
-  try {
-    PairProtocol::load(bad);
-    FAIL() << "expected ConfigError";
-  } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("scale_augment"), std::string::npos) << e.what();
-  }
-}
-
 TEST(PairProtocol, PartialCropRecordsOverlapAndSizes) {
   const auto obj = sphereCloud(1024, 3);
   std::mt19937_64 rng(4);
@@ -486,34 +438,7 @@ TEST(Trainer, AModelWithoutEdgeNormalsWarmStartsOneWithThemUnchanged) {
   }
   const auto reloaded = loadModel(normals_model)->config();  // the settings travel with the weights
   EXPECT_TRUE(reloaded.edge_normals);
-  EXPECT_FALSE(reloaded.edge_invariant);
   EXPECT_EQ(reloaded.normal_neighbours, 12);
-  {
-    obmnet::ObmNetConfig inv = plain;
-    inv.edge_invariant = true;
-    inv.normal_neighbours = 10;
-    torch::manual_seed(8);
-    obmnet::ObmNet net(inv);
-    ModelMeta meta;
-    meta.num_points = 64;
-    saveModel(dir + "/inv.pt", net, meta);
-    const auto back = loadModel(dir + "/inv.pt")->config();
-    EXPECT_TRUE(back.edge_invariant);
-    EXPECT_FALSE(back.edge_normals);
-    EXPECT_EQ(back.normal_neighbours, 10);
-    // One kind of edge features per model: both keys are refused, naming the key.
-    expectConfigErrorNaming(
-        [] {
-          ObmNetConfig::load(
-              ConfigNode::fromString("edge_normals: true\nedge_invariant: true\n", "m.yaml"));
-        },
-        "edge_invariant", "edge_normals and edge_invariant together");
-    // Its first layer has other inputs: no warm start from a model with coordinate features.
-    expectConfigErrorNaming([&] { trainerWith(inv, "inv")->initializeFrom(dir + "/m.pt"); },
-                            "m.pt",
-                            "a model with coordinate edge features cannot warm-start an "
-                            "invariant one");
-  }
   expectConfigErrorNaming(
       [] {
         ObmNetConfig::load(
@@ -672,7 +597,7 @@ TEST(Registrar, ModelTrainedWithoutTheRoadCutsItAtInference) {
 /// A fuzzing finding of tests/fuzz/regressions/model/: loading it is a FormatError whose message
 /// names the file and holds every one of `parts`.
 static void expectModelFindingRejected(const std::string& name, const std::vector<std::string>& parts) {
-  const std::string found = std::string(OBM_SOURCE_DIR) + "/tests/fuzz/regressions/model/" + name;
+  const std::string found = obm::test::sourceDir() + "/tests/fuzz/regressions/model/" + name;
   ASSERT_TRUE(std::filesystem::exists(found));
   try {
     loadModel(found);

@@ -12,7 +12,7 @@ ObmNetConfig ObmNetConfig::load(const ConfigNode& node) {
   node.checkKeys({"emb_dims", "dim", "k1", "k2", "n_keypoints", "n_samples", "n_iters", "nn_margin",
                   "loss_margin", "beta", "tau_min", "use_overlap_sampling", "use_bias_prediction",
                   "use_nmm", "nmm_score_grad", "planar", "voxel_keypoints", "neighbor_loss_nearest",
-                  "shared_centroid", "edge_normals", "edge_invariant", "normal_neighbours",
+                  "shared_centroid", "edge_normals", "normal_neighbours",
                   "ground_band", "soft_inference_sampling", "seed", "match_contrast",
                   "match_spatial_sigma"});
   node.get("emb_dims", c.emb_dims);
@@ -35,7 +35,6 @@ ObmNetConfig ObmNetConfig::load(const ConfigNode& node) {
   node.get("neighbor_loss_nearest", c.neighbor_loss_nearest);
   node.get("shared_centroid", c.shared_centroid);
   node.get("edge_normals", c.edge_normals);
-  node.get("edge_invariant", c.edge_invariant);
   node.get("normal_neighbours", c.normal_neighbours);
   node.get("ground_band", c.ground_band);
   node.get("soft_inference_sampling", c.soft_inference_sampling);
@@ -65,8 +64,6 @@ void ObmNetConfig::validate(const std::string& where) const {
   if (!(tau_min > 0.0)) fail("tau_min", "must be > 0");
   if (!(ground_band >= 0.0)) fail("ground_band", "must be >= 0");
   if (normal_neighbours < 3) fail("normal_neighbours", "must be >= 3 (a plane needs three points)");
-  if (edge_normals && edge_invariant)
-    fail("edge_invariant", "excludes edge_normals (two kinds of edge features: choose one)");
   if (use_bias_prediction && !use_overlap_sampling)
     fail("use_bias_prediction",
          "needs use_overlap_sampling: α weights the sampled overlap region, which OS provides");
@@ -99,8 +96,7 @@ std::string ObmNetConfig::toYaml() const {
     out << YAML::Key << "neighbor_loss_nearest" << YAML::Value << neighbor_loss_nearest;
   if (shared_centroid) out << YAML::Key << "shared_centroid" << YAML::Value << shared_centroid;
   if (edge_normals) out << YAML::Key << "edge_normals" << YAML::Value << edge_normals;
-  if (edge_invariant) out << YAML::Key << "edge_invariant" << YAML::Value << edge_invariant;
-  if (edge_normals || edge_invariant)
+  if (edge_normals)
     out << YAML::Key << "normal_neighbours" << YAML::Value << normal_neighbours;
   if (ground_band > 0.0) out << YAML::Key << "ground_band" << YAML::Value << ground_band;
   if (soft_inference_sampling)

@@ -93,7 +93,7 @@ PairProtocol PairProtocol::preset(const std::string& name) {
 PairProtocol PairProtocol::load(const ConfigNode& node) {
   node.checkKeys({"preset", "num_points", "resample", "max_angle_deg", "axis_angle", "max_translation",
                   "partial_keep", "partial_far", "jitter_sigma", "jitter_clip", "jitter_uniform",
-                  "outliers", "scale_augment"});
+                  "outliers"});
   PairProtocol p;
   if (node.has("preset")) {
     try {
@@ -113,40 +113,16 @@ PairProtocol PairProtocol::load(const ConfigNode& node) {
   node.get("jitter_clip", p.jitter_clip);
   node.get("jitter_uniform", p.jitter_uniform);
   node.get("outliers", p.outliers);
-  node.get("scale_augment", p.scale_augment);
   if (p.num_points < 8) throw ConfigError(node.where("num_points") + ": must be >= 8");
   if (p.partial_keep < 0 || p.partial_keep > p.num_points)
     throw ConfigError(node.where("partial_keep") + ": must be in [0, num_points]");
   if (p.jitter_sigma < 0 || p.outliers < 0 || p.max_angle_deg < 0 || p.max_translation < 0)
     throw ConfigError(node.where() +
                       ": jitter_sigma, outliers, max_angle_deg, max_translation must be >= 0");
-  if (p.scale_augment < 0.0 || p.scale_augment > 0.5)
-    throw ConfigError(node.where("scale_augment") + ": must be in [0, 0.5]");
   return p;
 }
 
 namespace {
-
-/// PairProtocol::scale_augment: the cloud scaled by U[1 − a, 1 + a] per axis about its
-/// centroid, then uniformly back to its original radius (the farthest point's distance).
-PointCloud scaleAugmented(const PointCloud& cloud, double a, std::mt19937_64& rng) {
-  std::uniform_real_distribution<double> U(1.0 - a, 1.0 + a);
-  const Eigen::Vector3f s(static_cast<float>(U(rng)), static_cast<float>(U(rng)),
-                          static_cast<float>(U(rng)));
-  Eigen::Vector3f c = Eigen::Vector3f::Zero();
-  for (const auto& p : cloud.points) c += p;
-  c /= static_cast<float>(std::max<std::size_t>(cloud.size(), 1));
-  PointCloud out = cloud;
-  float r0 = 0.0f, r1 = 0.0f;
-  for (auto& p : out.points) {
-    r0 = std::max(r0, (p - c).norm());
-    p = c + s.cwiseProduct(p - c);
-    r1 = std::max(r1, (p - c).norm());
-  }
-  if (r1 > 0.0f)
-    for (auto& p : out.points) p = c + (r0 / r1) * (p - c);
-  return out;
-}
 
 /// Indices of the `keep` points nearest to a random far point (PRNet/RIENet partial crop). With
 /// `region`, also the crop's ball: its centre (the far point) and the distance of the last kept
@@ -258,12 +234,6 @@ RegistrationPair makeResampledPair(const PointCloud& cloud, const PairProtocol& 
 RegistrationPair makePair(const PointCloud& cloud, const PairProtocol& protocol,
                           std::mt19937_64& rng) {
   OBM_ASSERT(!cloud.empty(), "makePair: empty cloud");
-  if (protocol.scale_augment > 0.0) {
-    // A new shape first; the rest of the pair is drawn as without augmentation.
-    PairProtocol rest = protocol;
-    rest.scale_augment = 0.0;
-    return makePair(scaleAugmented(cloud, protocol.scale_augment, rng), rest, rng);
-  }
   RegistrationPair pair;
   PointCloud base = randomSubset(cloud, static_cast<std::size_t>(protocol.num_points), rng);
   base.intensity.clear();

@@ -95,18 +95,13 @@ torch::Tensor spatialConsistencyLoss(const torch::Tensor& log_match,
 
 torch::Tensor poseLabelLoss(const torch::Tensor& R, const torch::Tensor& t,
                             const torch::Tensor& R_label, const torch::Tensor& t_label,
-                            const torch::Tensor& src, const torch::Tensor& pair_mask) {
+                            const torch::Tensor& src) {
   OBM_ASSERT(R.dim() == 3 && R.sizes() == R_label.sizes() && t.sizes() == t_label.sizes() &&
                  src.dim() == 3 && src.size(0) == R.size(0),
              "poseLabelLoss expects R, R* B×3×3, t, t* B×3 and src B×3×N");
-  OBM_ASSERT(!pair_mask.defined() || (pair_mask.dim() == 1 && pair_mask.size(0) == R.size(0)),
-             "poseLabelLoss: pair_mask must have one entry per pair");
   // (R − R*) p + (t − t*): B×3×N residuals of the moved source points.
   const auto r = torch::matmul(R - R_label, src) + (t - t_label).unsqueeze(2);
-  const auto per_pair = (r.pow(2).sum(1) + 1e-12).sqrt().mean(1);  // B
-  if (!pair_mask.defined()) return per_pair.mean();
-  const auto m = pair_mask.to(per_pair.scalar_type());
-  return (per_pair * m).sum() / m.sum().clamp_min(1.0);
+  return (r.pow(2).sum(1) + 1e-12).sqrt().mean(1).mean();
 }
 
 torch::Tensor correspondenceLoss(const torch::Tensor& logits, const torch::Tensor& labels,

@@ -15,9 +15,8 @@ ObmNetImpl::ObmNetImpl(const ObmNetConfig& config) : config_(config) {
   extractor_ = register_module(
       "extractor",
       obmnet::DenseEdgeConv(config_.k1, config_.emb_dims,
-                            config_.edge_invariant ? obmnet::EdgeFeatures::Invariant
-                            : config_.edge_normals ? obmnet::EdgeFeatures::Normals
-                                                   : obmnet::EdgeFeatures::Offsets));
+                            config_.edge_normals ? obmnet::EdgeFeatures::Normals
+                                                 : obmnet::EdgeFeatures::Offsets));
   if (config_.use_overlap_sampling) {
     sampler_ = register_module(
         "sampler", obmnet::OverlapSampler(config_.emb_dims, config_.n_samples, config_.tau_min));
@@ -98,7 +97,7 @@ ObmNetOutput ObmNetImpl::forward(const torch::Tensor& src, const torch::Tensor& 
   // Edge normals: estimated once per cloud; the source's turn with it, n = R·n₀, since the
   // estimate and its sign rule (away from the centroid) move rigidly with the cloud.
   torch::Tensor tgt_edge_normals, src_edge_normals;
-  if (config_.edge_normals || config_.edge_invariant) {
+  if (config_.edge_normals) {
     tgt_edge_normals =
         obmnet::orientedNormals(tgt, nearestOf(tgt_knn1, tgt, config_.normal_neighbours));
     src_edge_normals =

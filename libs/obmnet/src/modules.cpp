@@ -105,10 +105,8 @@ void addConv2dBnLrelu(nn::Sequential& seq, int64_t in, int64_t out) {
 DenseEdgeConvImpl::DenseEdgeConvImpl(int64_t k, int64_t emb_dims, EdgeFeatures features)
     : k_(k),
       features_(features),
-      edge_channels_(features == EdgeFeatures::Invariant ? 4
-                     : features == EdgeFeatures::Normals ? 9
-                                                         : 3) {
-  // Dense connectivity: layer l sees the edge features (E = 3, 9 or 4) and the outputs of layers
+      edge_channels_(features == EdgeFeatures::Normals ? 9 : 3) {
+  // Dense connectivity: layer l sees the edge features (E = 3 or 9) and the outputs of layers
   // 1..l−1.
   const int64_t E = edge_channels_;
   layer1_ = register_module("layer1", conv2dBnRelu(E, 32));
@@ -138,16 +136,9 @@ torch::Tensor DenseEdgeConvImpl::forward(const torch::Tensor& x, const torch::Te
 
 torch::Tensor DenseEdgeConvImpl::forwardLayered(const torch::Tensor& x, const torch::Tensor& idx,
                                                 const torch::Tensor& normals) {
-  // B×E×N×k: relative coordinates (translation invariant), after [n_i, n_j − n_i] with normals;
-  // or the point-pair feature [‖d‖, n_i·d, n_j·d, n_i·n_j] (rotation invariant too).
+  // B×E×N×k: relative coordinates (translation invariant), after [n_i, n_j − n_i] with normals.
   auto e = edgeVectors(x, idx);
-  if (features_ == EdgeFeatures::Invariant) {
-    const auto ni = normals.unsqueeze(3).expand_as(e);
-    const auto nj = edgeVectors(normals, idx) + ni;
-    e = torch::cat({e.norm(2, 1, true), (ni * e).sum(1, true), (nj * e).sum(1, true),
-                    (ni * nj).sum(1, true)},
-                   1);
-  } else if (withNormals()) {
+  if (withNormals()) {
     const auto dn = edgeVectors(normals, idx);
     e = torch::cat({normals.unsqueeze(3).expand_as(dn), dn, e}, 1);
   }
@@ -236,22 +227,9 @@ torch::Tensor DenseEdgeConvImpl::forwardFused(const torch::Tensor& x, const torc
   for (int64_t b = 0; b < B; ++b) {
     const auto xb = x[b].contiguous();                       // 3×N
     const auto nbr = idx[b].t().contiguous().reshape({-1});  // k·N, neighbour-rank major
-    if (features_ == EdgeFeatures::Invariant) {
-      // The point-pair feature, as forwardLayered computes it (rows in its order).
-      const auto nbn = normals[b].contiguous();                                 // 3×N
-      const auto d = xb.index_select(1, nbr).view({3, k, N}) - xb.unsqueeze(1);  // x_j − x_i
-      const auto ni = nbn.unsqueeze(1);
-      const auto nj = nbn.index_select(1, nbr).view({3, k, N});
-      auto e = buffer.narrow(0, 0, 4).view({4, k, N});
-      e[0].copy_(d.norm(2, 0));
-      e[1].copy_((ni * d).sum(0));
-      e[2].copy_((nj * d).sum(0));
-      e[3].copy_((ni * nj).sum(0));
-    } else {
-      auto e = buffer.narrow(0, E - 3, 3);
-      torch::index_select_out(e, xb, 1, nbr);   // x_j
-      e.view({3, k, N}).sub_(xb.unsqueeze(1));  // x_j − x_i
-    }
+    auto e = buffer.narrow(0, E - 3, 3);
+    torch::index_select_out(e, xb, 1, nbr);   // x_j
+    e.view({3, k, N}).sub_(xb.unsqueeze(1));  // x_j − x_i
     if (features_ == EdgeFeatures::Normals) {
       const auto nbn = normals[b].contiguous();                                 // 3×N
       buffer.narrow(0, 0, 3).view({3, k, N}).copy_(nbn.unsqueeze(1).expand({3, k, N}));  // n_i

@@ -389,13 +389,13 @@ struct Trainer::Impl {
     return w[0] * o.loss_global + w[1] * o.loss_neighbor + w[2] * o.loss_spatial;
   }
 
-  /// Self-training labels of a batch (teacher.hpp): the network's estimate in inference mode,
-  /// refined by ICP. Returns the teacher's transforms; `labels` B×N.
-  RigidTransforms teach(const Batch& b, torch::Tensor& labels) {
+  /// Self-training labels of a batch (teacher.hpp), `labels` B×N: the network's estimate in
+  /// inference mode, refined by ICP.
+  void teach(const Batch& b, torch::Tensor& labels) {
     torch::NoGradGuard ng;
     model->eval();
     const auto o = model->forward(b.src, b.tgt);
-    return teacherLabels(b.src, b.tgt, RigidTransforms{o.R, o.t}, cfg.teacher, labels);
+    teacherLabels(b.src, b.tgt, RigidTransforms{o.R, o.t}, cfg.teacher, labels);
   }
 
   std::array<double, 7> step(const Batch& b, int global_pairs) {
@@ -410,9 +410,8 @@ struct Trainer::Impl {
       comm_s += tc.seconds();
     }
     torch::Tensor labels;
-    RigidTransforms T_teacher;
     const bool teaching = cfg.match_loss_weight > 0.0;
-    if (teaching) T_teacher = teach(b, labels);
+    if (teaching) teach(b, labels);
     model->train();
     optim->zero_grad();
     const auto o = model->forward(b.src, b.tgt, /*compute_loss=*/true, b.tgt_surface, b.tgt_normals,
@@ -420,16 +419,11 @@ struct Trainer::Impl {
     torch::Tensor total = objective(o), pose = torch::zeros({}, o.loss.options()),
                   match = torch::zeros({}, o.loss.options());
     if (cfg.pose_loss_weight > 0.0) {
-      if (b.R_label.defined())
-        pose = cfg.pose_loss_weight * poseLabelLoss(o.R, o.t, b.R_label, b.t_label, b.src);
-      else if (teaching)
-        pose = cfg.pose_loss_weight *
-               poseLabelLoss(o.R, o.t, T_teacher.R, T_teacher.t, b.src, (labels >= 0).any(1));
-      else
+      if (!b.R_label.defined())
         throw ConfigError("train.pose_loss_weight > 0, but the training pairs carry no pose label "
                           "(set data.pose_labels to the mapping app's trajectory of each training "
-                          "sequence, or self-train with train.teacher; ground truth is never a "
-                          "label)");
+                          "sequence; ground truth is never a label)");
+      pose = cfg.pose_loss_weight * poseLabelLoss(o.R, o.t, b.R_label, b.t_label, b.src);
       total = total + pose;
     }
     if (teaching) {
@@ -701,9 +695,8 @@ std::vector<OverfitRow> Trainer::overfitOneBatch(int steps, int every, int epoch
   for (int s = 0; s < steps; ++s) {
     // Self-training relabels the batch with the current weights before every step, as step() does.
     torch::Tensor labels;
-    RigidTransforms T_teacher;
     const bool teaching = I.cfg.match_loss_weight > 0.0;
-    if (teaching) T_teacher = I.teach(b, labels);
+    if (teaching) I.teach(b, labels);
     I.model->train();
     I.optim->zero_grad();
     const auto o = I.model->forward(b.src, b.tgt, true, b.tgt_surface, b.tgt_normals, labels);
@@ -711,9 +704,6 @@ std::vector<OverfitRow> Trainer::overfitOneBatch(int steps, int every, int epoch
     torch::Tensor total = I.objective(o);
     if (I.cfg.pose_loss_weight > 0.0 && b.R_label.defined())
       total = total + I.cfg.pose_loss_weight * poseLabelLoss(o.R, o.t, b.R_label, b.t_label, b.src);
-    else if (I.cfg.pose_loss_weight > 0.0 && teaching)
-      total = total + I.cfg.pose_loss_weight * poseLabelLoss(o.R, o.t, T_teacher.R, T_teacher.t,
-                                                             b.src, (labels >= 0).any(1));
     if (teaching) total = total + I.cfg.match_loss_weight * o.loss_match;
     if (s % every == 0 || s + 1 == steps) rows.push_back(row(s, total.item<double>(), o, "train"));
     total.backward();

@@ -65,15 +65,7 @@ struct ObmNetConfig {
   /// weights. A model without them warm-starts one with them (the new input columns start at
   /// zero, so the warm-started network computes what it did before).
   bool edge_normals = false;
-  /// Rotation-invariant edge features: each edge (i, j) sees, with d = x_j − x_i, the four
-  /// numbers [‖d‖, n_i·d, n_j·d, n_i·n_j] (a point-pair feature) instead of coordinates, so the
-  /// features — and the matching — are the same whatever the clouds are turned by, where the
-  /// offsets of `edge_normals` turn with the cloud and the network must learn every rotation of
-  /// every shape. Needs no `edge_normals` (it estimates the normals itself, with
-  /// `normal_neighbours`). Recorded with the weights; trained from fresh weights (the first layer
-  /// has other inputs).
-  bool edge_invariant = false;
-  /// Neighbours (self included) of the normal estimate of `edge_normals` / `edge_invariant`.
+  /// Neighbours (self included) of the normal estimate of `edge_normals`.
   int normal_neighbours = 16;
   /// Input sampling at inference: voxel keypoints (obmnet::voxelKeypoints, the same cells in two
   /// scans of one place) instead of a random subset. Recorded with the weights so that inference

@@ -59,13 +59,6 @@ struct PairProtocol {
   /// RIENet's "noise": this many outliers appended to each cloud, uniform in [−1, 1]³ plus
   /// N(0, 0.5²) and clipped to ±1.
   int outliers = 0;
-  /// Shape augmentation for training on few objects: each axis of the object's cloud is scaled
-  /// by its own factor ~ U[1 − a, 1 + a] (axis-aligned: the meshes come in their canonical
-  /// orientation) before the pair is made, and the result is brought back to the cloud's
-  /// original radius about its centroid. Both clouds of a pair see the same shape, so the pose
-  /// is unchanged; every draw is a new shape. 0 = none (the pairs are then exactly those of the
-  /// protocol without this key, for the same seed). At most 0.5.
-  double scale_augment = 0.0;
 
   /// A named preset: clean, jitter, outliers, partial (768 of 1024, RIENet), partial_noise
   /// (640 of 1024 with σ = 0.01 jitter: overlap ≈ 0.65), indoor (7Scenes fragments: 2048 → 1536),

@@ -60,11 +60,9 @@ torch::Tensor spatialConsistencyLoss(const torch::Tensor& log_match,
 /// over the batch and the source points p of ‖(R p + t) − (R* p + t*)‖, with (R, t) the estimate
 /// (B×3×3, B×3), (R*, t*) the label and `src` the normalised source (B×3×N). A distance on the
 /// points rather than on the parameters weighs rotation by the cloud's extent, as L_g does.
-/// With `pair_mask` (B bool) only the pairs it marks count (the mean over them; 0 when none is):
-/// a self-training teacher leaves the pairs it cannot label unmarked.
 torch::Tensor poseLabelLoss(const torch::Tensor& R, const torch::Tensor& t,
                             const torch::Tensor& R_label, const torch::Tensor& t_label,
-                            const torch::Tensor& src, const torch::Tensor& pair_mask = {});
+                            const torch::Tensor& src);
 
 /// L_c, the correspondence term of self-training (not one of the paper's losses; teacher.hpp):
 /// −log softmax(ẑ)_{i, j*} for every source point i whose label j* (B×N int64, −1 = none) is set,

@@ -56,7 +56,6 @@ torch::Tensor orientedNormals(const torch::Tensor& x, const torch::Tensor& idx);
 enum class EdgeFeatures {
   Offsets,    ///< d (3 channels)
   Normals,    ///< [n_i, n_j − n_i, d] (9 channels, the normals first; ObmNetConfig::edge_normals)
-  Invariant,  ///< [‖d‖, n_i·d, n_j·d, n_i·n_j] (4; ObmNetConfig::edge_invariant)
 };
 
 class DenseEdgeConvImpl : public torch::nn::Module {
@@ -70,7 +69,7 @@ class DenseEdgeConvImpl : public torch::nn::Module {
   int64_t k() const { return k_; }
   EdgeFeatures features() const { return features_; }
   bool withNormals() const { return features_ != EdgeFeatures::Offsets; }
-  /// Channels of one edge feature: 3, 9 or 4.
+  /// Channels of one edge feature: 3 or 9.
   int64_t edgeChannels() const { return edge_channels_; }
   /// The same features by the layer-by-layer path of training, also in eval mode without
   /// gradients (where forward() takes the fused inference path): the reference of its test.

@@ -70,9 +70,8 @@ struct TrainConfig {
   /// network's own estimate of each training pair, refined by point-to-point ICP on the pair
   /// (and, when `teacher.from_identity`, ICP from the identity, the better fit kept), labels every
   /// source point with its nearest target point within `teacher.match_radius`; the weighted
-  /// correspondence term match_loss_weight·L_c is added to the loss (and, with
-  /// pose_loss_weight > 0 on unlabelled pairs, the teacher's pose is the L_p label). No ground
-  /// truth: the labels are the network's and ICP's. 0 = off; > 0 needs a `train.teacher:` map.
+  /// correspondence term match_loss_weight·L_c is added to the loss. No ground truth: the labels
+  /// are the network's and ICP's. 0 = off; > 0 needs a `train.teacher:` map.
   double match_loss_weight = 0.0;
   TeacherParams teacher;  ///< the teacher's settings (`train.teacher:` map)
   /// Weights of L_g, L_n, L_s in the training objective (YAML `loss_weights: [g, n, s]`); the
