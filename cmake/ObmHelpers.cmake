@@ -61,10 +61,9 @@ function(obm_add_test name)
     return()  # a test folder whose files are not written yet
   endif()
   add_executable(${name} ${ARG_SOURCES})
-  target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main)
-  target_compile_definitions(${name} PRIVATE
-    OBM_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
-    OBM_BINARY_DIR="${PROJECT_BINARY_DIR}")
+  # obm_test_common (tests/CMakeLists.txt) knows the source and build folders; no test object has
+  # them compiled in, so ccache reuses it across clones and build folders.
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} obm_test_common GTest::gtest GTest::gtest_main)
   obm_set_warnings(${name})
   set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
   include(GoogleTest)
@@ -72,4 +71,39 @@ function(obm_add_test name)
     TEST_PREFIX "${ARG_LABELS}."
     PROPERTIES LABELS "${ARG_LABELS}"
     DISCOVERY_TIMEOUT 120)
+endfunction()
+
+# obm_torch_pch(<target>): precompiles LibTorch's <torch/torch.h> once for <target> and uses it in
+# those of its sources that include LibTorch (directly or through the network's torch headers);
+# the others are left alone. Parsing torch.h takes a third of such a translation unit's time.
+set(OBM_TORCH_INCLUDE_REGEX
+  "#include [<\"](torch/|ATen/|obm/obmnet/(model|modules|svd|losses|nmm|teacher|collectives)\\.hpp|kernels\\.hpp|untrained_model\\.hpp)")
+function(obm_torch_pch tgt)
+  if(NOT OBM_TORCH_PCH OR NOT TARGET ${tgt})
+    return()
+  endif()
+  get_target_property(_srcs ${tgt} SOURCES)
+  get_target_property(_dir ${tgt} SOURCE_DIR)
+  set(_n 0)
+  foreach(_s ${_srcs})
+    if(NOT IS_ABSOLUTE ${_s})
+      set(_s ${_dir}/${_s})
+    endif()
+    if(NOT _s MATCHES "\\.cpp$")
+      continue()
+    endif()
+    file(STRINGS ${_s} _hits REGEX "${OBM_TORCH_INCLUDE_REGEX}")
+    # A source with its own options (kernels.cpp's floating-point flags) cannot use a header
+    # precompiled without them.
+    get_source_file_property(_opts ${_s} DIRECTORY ${_dir} COMPILE_OPTIONS)
+    if(_hits AND NOT _opts)
+      math(EXPR _n "${_n} + 1")
+    else()
+      set_source_files_properties(${_s} DIRECTORY ${_dir} PROPERTIES SKIP_PRECOMPILE_HEADERS ON)
+    endif()
+  endforeach()
+  # A precompiled header pays for itself from two translation units on.
+  if(_n GREATER 1)
+    target_precompile_headers(${tgt} PRIVATE <torch/torch.h>)
+  endif()
 endfunction()

@@ -6,6 +6,7 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BUILD="${1:-$ROOT/build}"
 shift || true
 JOBS="${OBM_JOBS:-$(nproc)}"
+source "$ROOT/scripts/ccache_env.sh"
 GEN=()
 command -v ninja >/dev/null && GEN=(-G Ninja)
 if [[ ! -f "$BUILD/CMakeCache.txt" ]]; then

@@ -8,8 +8,8 @@
 set -euo pipefail
 
 PACKAGES=(
-  # toolchain (clang: the libFuzzer targets of scripts/fuzz.sh)
-  cmake g++ clang libclang-rt-14-dev ninja-build ccache pkg-config git
+  # toolchain (clang: the libFuzzer targets of scripts/fuzz.sh; lld: the linker, see CMakeLists.txt)
+  cmake g++ clang libclang-rt-14-dev lld ninja-build ccache pkg-config git
   # libraries
   libeigen3-dev libmrpt-dev libtorch-dev libceres-dev liboctomap-dev libgtest-dev libgmock-dev
   libembree-dev libhdf5-dev libnanoflann-dev libyaml-cpp-dev nlohmann-json3-dev libpng-dev libjpeg-dev libcli11-dev
@@ -24,6 +24,8 @@ PACKAGES=(
   mrpt-apps mrpt-common
   # headless browser of the report.html check (tests/apps/check_report_html.sh)
   chromium fonts-dejavu-core
+  # CGAL's sample meshes and point sets, read by the tests on real meshes (scripts/get_cgal_meshes.sh)
+  libcgal-demo
   # the demo prints obm-map's metrics with python3; scripts/bench_slam.sh scores with it;
   # tests/apps/check_obm_bench_cli.sh reads obm-bench's per-pair CSV with it
   python3

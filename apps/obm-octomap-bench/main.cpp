@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "../common/cli.hpp"
+#include "../common/paths.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
 #include "obm/core/timer.hpp"
@@ -46,7 +47,7 @@ double threadCpuMs() {
 std::string defaultScans() {
   if (const char* env = std::getenv("OBM_SHARED_DATA"))
     return std::string(env) + "/kitti/hdl64_sample";
-  return std::string(OBM_SOURCE_DIR) + "/../shared/data/kitti/hdl64_sample";
+  return obm::apps::sourceDir() + "/../shared/data/kitti/hdl64_sample";
 }
 
 }  // namespace

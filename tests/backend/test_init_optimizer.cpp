@@ -7,6 +7,7 @@
 
 #include "obm/backend/initialization.hpp"
 #include "obm/backend/metrics.hpp"
+#include "test_data.hpp"
 #include "obm/backend/optimizer.hpp"
 #include "obm/backend/synthetic.hpp"
 #include "obm/config/config_node.hpp"
@@ -366,7 +367,7 @@ TEST(Optimizer, OptionsLoadFromYaml) {
     EXPECT_NEAR(s.final_chi2, reference, 1e-7 * reference);
   }
   const Options shipped = Options::load(
-      ConfigNode::loadFile(std::string(OBM_SOURCE_DIR) + "/config/graph.yaml").child("optimizer"));
+      ConfigNode::loadFile(obm::test::sourceDir() + "/config/graph.yaml").child("optimizer"));
   EXPECT_EQ(shipped.init, InitMethod::Chordal);
 }
 

@@ -124,19 +124,19 @@ TEST(ModelNet, ShapeNotBackedByTheFileIsAFormatErrorBeforeAnyAllocation) {
   // 3 GB. The reader sized its buffer from the header and ran out of memory; it must compare the
   // claim with the bytes the file stores first.
   const std::string found =
-      std::string(OBM_SOURCE_DIR) + "/tests/fuzz/regressions/hdf5/shape_claims_3gb.h5";
+      obm::test::sourceDir() + "/tests/fuzz/regressions/hdf5/shape_claims_3gb.h5";
   ASSERT_TRUE(fs::exists(found));
   expectThrowWith<FormatError>([&] { io::readModelNetH5(found); }, {found, "stores"});
   // A second finding: a metadata entry whose size field asks HDF5 for 134 TB. The allocation
   // fails inside the library (NULL, as from glibc), which reports it as a read error.
   const std::string meta =
-      std::string(OBM_SOURCE_DIR) + "/tests/fuzz/regressions/hdf5/metadata_size_134tb.h5";
+      obm::test::sourceDir() + "/tests/fuzz/regressions/hdf5/metadata_size_134tb.h5";
   ASSERT_TRUE(fs::exists(meta));
   EXPECT_THROW(io::readModelNetH5(meta), Error);
   // A third: a 2 kB file whose layout message claims more stored bytes than the file holds, so the
   // shape looked backed by them. The claim is bounded by the file's size.
   const std::string storage =
-      std::string(OBM_SOURCE_DIR) + "/tests/fuzz/regressions/hdf5/storage_claims_beyond_file.h5";
+      obm::test::sourceDir() + "/tests/fuzz/regressions/hdf5/storage_claims_beyond_file.h5";
   ASSERT_TRUE(fs::exists(storage));
   expectThrowWith<FormatError>([&] { io::readModelNetH5(storage); }, {storage, "stores"});
 

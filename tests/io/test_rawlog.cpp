@@ -313,7 +313,7 @@ TEST(Rawlog, FuzzFindingHugeStringLengthIsAFormatError) {
   // frame whose string length field claims ~2.3 GB. MRPT allocates that much before it finds
   // the stream short; the reader must then report the damage as a FormatError naming the file
   // and the object, after the observations it could read.
-  const std::string path = std::string(OBM_SOURCE_DIR) +
+  const std::string path = obm::test::sourceDir() +
                            "/tests/fuzz/regressions/rawlog/mrpt_string_length_4gb.rawlog";
   obm::io::RawlogReader reader(path);
   obm::io::RawlogObservation obs;

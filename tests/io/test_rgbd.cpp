@@ -494,7 +494,7 @@ TEST(ColorImage, FuzzFindingsJpegClaimingAHugeImageWithoutItsDataFailAtOnce) {
   for (const char* name : {"header_claims_huge_image_truncated.jpg",
                            "marker_ends_data_of_huge_image.jpg",
                            "progressive_header_claims_270mpx.jpg"}) {
-    const std::string path = std::string(OBM_SOURCE_DIR) + "/tests/fuzz/regressions/jpeg/" + name;
+    const std::string path = obm::test::sourceDir() + "/tests/fuzz/regressions/jpeg/" + name;
     ASSERT_TRUE(fs::exists(path));
     const auto t0 = std::chrono::steady_clock::now();
     // (All three headers are beyond the largest image accepted, 8192 x 8192.)

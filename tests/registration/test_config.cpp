@@ -6,6 +6,7 @@
 #include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
 #include "obm/registration/factory.hpp"
+#include "test_data.hpp"
 
 namespace obm {
 namespace {
@@ -173,11 +174,11 @@ TEST(RegistrationConfig, ErrorsNameFileAndKey) {
 
 TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
   const registration::ScanMatcherConfig c = registration::ScanMatcherConfig::load(
-      ConfigNode::loadFile(std::string(OBM_SOURCE_DIR) + "/config/registration/obmnet_icp.yaml"));
+      ConfigNode::loadFile(obm::test::sourceDir() + "/config/registration/obmnet_icp.yaml"));
   EXPECT_EQ(c.type, registration::MatcherKind::ObmNetIcp);
   EXPECT_TRUE(c.obmnet.pre_align);
   // Resolved against the YAML file's folder.
-  EXPECT_EQ(c.obmnet.model_path.rfind(std::string(OBM_SOURCE_DIR) + "/config/registration/", 0), 0u)
+  EXPECT_EQ(c.obmnet.model_path.rfind(obm::test::sourceDir() + "/config/registration/", 0), 0u)
       << c.obmnet.model_path;
   const auto s = registration::ScanMatcherConfig::load(ConfigNode::fromString(
       "type: obmnet\nobmnet: {model_path: /abs/m.pt, num_points: 512, threads: 1, seed: 7, "
@@ -271,7 +272,7 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
 TEST(RegistrationConfig, ShippedIcpConfigHoldsTheDefaults) {
   // config/registration/icp.yaml documents every key with its default value.
   const registration::ScanMatcherConfig c = registration::ScanMatcherConfig::load(
-      ConfigNode::loadFile(std::string(OBM_SOURCE_DIR) + "/config/registration/icp.yaml"));
+      ConfigNode::loadFile(obm::test::sourceDir() + "/config/registration/icp.yaml"));
   const registration::IcpParams d;
   EXPECT_EQ(c.type, registration::MatcherKind::Icp);
   EXPECT_EQ(c.icp.source_voxel, d.source_voxel);

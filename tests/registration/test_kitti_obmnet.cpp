@@ -19,7 +19,7 @@
 namespace obm {
 namespace {
 
-const std::string kModel = std::string(OBM_SOURCE_DIR) + "/share/obmslam/models/obmnet_lidar.pt";
+const std::string kModel = obm::test::modelsDir() + "obmnet_lidar.pt";
 
 class KittiObmNet : public ::testing::Test {
  protected:
@@ -29,7 +29,7 @@ class KittiObmNet : public ::testing::Test {
         << kModel << ": the LiDAR model is part of the project (obm-train, see its model card)";
     // The matcher exactly as obm-map builds it for loop closure (the `fallback` key is obm-map's).
     const auto map_cfg =
-        ConfigNode::loadFile(std::string(OBM_SOURCE_DIR) + "/config/map_kitti.yaml");
+        ConfigNode::loadFile(obm::test::sourceDir() + "/config/map_kitti.yaml");
     const auto m = map_cfg.child("matcher");
     registration::ScanMatcherConfig cfg;
     cfg.type = registration::MatcherKind::ObmNetIcp;

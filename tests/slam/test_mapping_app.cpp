@@ -98,7 +98,7 @@ const std::string& lidarSequence() {
 }
 
 SlamConfig kittiConfig() {
-  return SlamConfig::loadFile(std::string(OBM_SOURCE_DIR) + "/config/map_kitti.yaml");
+  return SlamConfig::loadFile(obm::test::sourceDir() + "/config/map_kitti.yaml");
 }
 
 nlohmann::json readJson(const std::string& path) {
@@ -264,7 +264,7 @@ TEST(MappingApp, RawlogOfTheSameDriveWithItsGroundTruth) {
 TEST(MappingApp, RgbdFolderWithTheIndoorConfiguration) {
   const std::string seq = simulate(kRgbdYaml, "rgbd");
   const std::string out = test::scratchDir("slam_rgbd_out");
-  SlamConfig cfg = SlamConfig::loadFile(std::string(OBM_SOURCE_DIR) + "/config/map_indoor.yaml");
+  SlamConfig cfg = SlamConfig::loadFile(obm::test::sourceDir() + "/config/map_indoor.yaml");
   MappingAppOptions o;
   o.input = seq;
   o.out_dir = out;

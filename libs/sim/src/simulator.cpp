@@ -25,17 +25,8 @@
 #include "obm/sim/preview.hpp"
 #include "obm/sim/random.hpp"
 #include "obm/sim/scene.hpp"
+#include "source_tree.hpp"
 #include "work_queue.hpp"
-
-#ifndef OBM_SIM_SOURCE_CONFIG_DIR
-#define OBM_SIM_SOURCE_CONFIG_DIR ""
-#endif
-#ifndef OBM_SIM_SOURCE_SHARED_DATA
-#define OBM_SIM_SOURCE_SHARED_DATA ""
-#endif
-#ifndef OBM_SIM_INSTALL_DATADIR
-#define OBM_SIM_INSTALL_DATADIR "share"
-#endif
 
 namespace obm::sim {
 
@@ -56,7 +47,7 @@ std::string expandPath(const std::string& value, const std::string& where) {
       const char* env = std::getenv(var.c_str());
       std::string rep = env ? env : "";
       if (rep.empty() && var == "OBM_SHARED_DATA") {
-        const std::string src = OBM_SIM_SOURCE_SHARED_DATA;
+        const std::string src = detail::sourceSharedData();
         if (!src.empty() && fs::is_directory(src)) rep = src;
       }
       if (rep.empty())
@@ -239,11 +230,11 @@ std::vector<std::string> presetDirs(const std::string& exe_path) {
     if (ec) exe = fs::absolute(exe_path, ec);
     if (!ec)
       dirs.push_back(
-          (exe.parent_path().parent_path() / OBM_SIM_INSTALL_DATADIR / "obmslam" / "config" / "sim")
+          (exe.parent_path().parent_path() / detail::installDataDir() / "obmslam" / "config" / "sim")
               .lexically_normal()
               .string());
   }
-  const std::string src = OBM_SIM_SOURCE_CONFIG_DIR;
+  const std::string src = detail::sourceConfigDir();
   if (!src.empty()) dirs.push_back((fs::path(src) / "sim").string());
   return dirs;
 }
