@@ -198,12 +198,10 @@ TEST(MeshIo, WriteReadRoundTripAllFormats) {
 }
 
 // Real meshes from CGAL's data (Debian libcgal-demo; scripts/get_cgal_meshes.sh prints the folder
-// to put in OBM_CGAL_DATA). Skipped when the variable is unset.
+// to put in OBM_CGAL_DATA). Skipped when the variable is unset, except in CI.
 TEST(MeshIo, RealCgalMeshes) {
-  const char* env = std::getenv("OBM_CGAL_DATA");
-  if (!env || !fs::is_directory(env))
-    GTEST_SKIP() << "OBM_CGAL_DATA not set (scripts/get_cgal_meshes.sh)";
-  const std::string dir = env;
+  OBM_REQUIRE_CGAL_DATA();
+  const std::string dir = std::getenv("OBM_CGAL_DATA");
   // Every mesh of the folder reads and is consistent.
   std::size_t files = 0;
   for (const auto& e : fs::directory_iterator(dir)) {

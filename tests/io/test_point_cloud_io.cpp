@@ -288,13 +288,11 @@ TEST(PointCloudIo, OffPointSetWithColours) {
 // Real point sets of CGAL's data (scripts/get_cgal_meshes.sh; OBM_CGAL_DATA is its meshes folder,
 // the point sets are in ../points_3).
 TEST(PointCloudIo, RealCgalPointSets) {
-  const char* env = std::getenv("OBM_CGAL_DATA");
-  if (!env || !fs::is_directory(env))
-    GTEST_SKIP() << "OBM_CGAL_DATA not set (scripts/get_cgal_meshes.sh)";
-  const fs::path dir = fs::path(env).parent_path() / "points_3";
+  OBM_REQUIRE_CGAL_DATA();
+  const fs::path dir = fs::path(std::getenv("OBM_CGAL_DATA")).parent_path() / "points_3";
   // b9_training.ply: binary little endian, double xyz, uchar colours, an int label.
   const fs::path b9 = dir / "b9_training.ply";
-  if (!fs::exists(b9)) GTEST_SKIP() << b9 << " missing";
+  ASSERT_TRUE(fs::exists(b9)) << b9 << " missing from CGAL's data";
   const auto r = io::readPointCloudDetailed(b9.string());
   EXPECT_EQ(r.num_in_file, 22300u);  // its header's vertex count
   EXPECT_EQ(r.cloud.size() + r.num_nonfinite_dropped, r.num_in_file);
@@ -312,7 +310,7 @@ TEST(PointCloudIo, FuzzFindingElementWithoutPropertiesAndAHugeCount) {
   // Found by tests/fuzz (scripts/fuzz.sh): a binary PLY whose header declares an element with a
   // count in the billions and no property. Skipping it read nothing per record and looped for
   // hours; it must take no time (the input then fails or parses on its own merits).
-  const std::string path = std::string(OBM_SOURCE_DIR) +
+  const std::string path = obm::test::sourceDir() +
                            "/tests/fuzz/regressions/ply/element_without_properties_huge_count.ply";
   std::ifstream in(path, std::ios::binary);
   const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());

@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "obm/core/cloud_ops.hpp"
+#include "obm/datasets/fragment_source.hpp"
 #include "obm/io/kitti.hpp"
 #include "obm/io/mesh_io.hpp"
 #include "obm/io/point_cloud_io.hpp"
@@ -50,7 +51,7 @@
 namespace obm {
 namespace {
 
-const std::string kModels = std::string(OBM_SOURCE_DIR) + "/share/obmslam/models/";
+const std::string kModels = obm::test::modelsDir();
 constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
 
 double rreDeg(const Isometry3d& T, const Isometry3d& gt) {
@@ -151,8 +152,9 @@ double median(std::vector<double> v) {
 // scripts/test.sh fetches the meshes; where Debian's archive is out of reach it goes on without
 // them, as the other tests on real meshes do.
 TEST(ModelAccuracy, ObjectModelOnIndependentSamplingsOfUnseenObjects) {
+  OBM_REQUIRE_CGAL_DATA();
   const auto e = objectModelOnUnseenPairs(kModels + "obmnet_objects_resampled.pt");
-  if (e.network.empty()) GTEST_SKIP() << "OBM_CGAL_DATA not set (scripts/get_cgal_meshes.sh)";
+  ASSERT_FALSE(e.network.empty());
   // Measured with the shipped model (epoch 19): median 22.6° against the identity's 47.4° (the
   // pairs' own rotation) — far from the ≤ 2° the model is meant to reach (its model card), but a
   // model that learnt nothing on independent samplings stays at the identity or worse (the
@@ -162,8 +164,9 @@ TEST(ModelAccuracy, ObjectModelOnIndependentSamplingsOfUnseenObjects) {
 }
 
 TEST(ModelAccuracy, EdgeNormalsModelOnIndependentSamplingsOfUnseenObjects) {
+  OBM_REQUIRE_CGAL_DATA();
   const auto e = objectModelOnUnseenPairs(kModels + "obmnet_objects_normals.pt");
-  if (e.network.empty()) GTEST_SKIP() << "OBM_CGAL_DATA not set (scripts/get_cgal_meshes.sh)";
+  ASSERT_FALSE(e.network.empty());
   // Measured with the shipped model (epoch 7): median 18.6° against the identity's 47.4° (0.39×;
   // obmnet_objects_resampled.pt: 22.6°, 0.48×), three of the eight pairs within 10° by the
   // network alone (1.1°, 4.0°, 4.3°; obmnet_objects_resampled.pt: one).
@@ -180,8 +183,9 @@ TEST(ModelAccuracy, SearchOverEveryRotationRegistersLowOverlapObjectPairs) {
   // for objects"): the matcher of obm-bench's obmnet+icp, then with 32 poses (25° apart) of a
   // search over every rotation (±90° in steps of 7.5°, ±0.3 around the centroids) chosen on the
   // target's tangent planes at 1 cm.
+  OBM_REQUIRE_CGAL_DATA();
   const auto objects = cgalObjectSet(1024);
-  if (!objects) GTEST_SKIP() << "OBM_CGAL_DATA not set (scripts/get_cgal_meshes.sh)";
+  ASSERT_TRUE(objects.has_value());
   const auto proto = obmnet::PairProtocol::preset("partial_noise");
   std::mt19937_64 rng(1);
   std::vector<obmnet::RegistrationPair> pairs;
@@ -361,6 +365,57 @@ TEST(ModelAccuracy, SmallLidarModelOnRealKittiSweepsFiveApart) {
   }
   // The network alone moves the source towards the target: closer than not moving.
   EXPECT_LT(net_t / n, identity_t / n) << "mean translation error of the network alone [m]";
+}
+
+/// Real KITTI sweep `i` of raw_drive_22 as the LiDAR models see it, and the reference pose
+/// T_i_(i+n): the chain of the n consecutive ICP registrations (each started 0.8 m ahead, within
+/// its basin; the sweeps have no ground truth).
+struct RealKittiSweeps {
+  std::string dir = test::sharedDataDir() + "/kitti/raw_drive_22/velodyne/";
+  registration::IcpMatcher chain_icp{lidarIcp(), lidarConfidence()};
+  PointCloud sweep(std::size_t i) const {
+    return lidarCloud(io::readKittiVelodyne(dir + io::kittiScanFileName(i)));
+  }
+  Isometry3d reference(std::size_t i, std::size_t n) const {
+    Isometry3d step = Isometry3d::Identity();
+    step.translation() = Eigen::Vector3d(0.8, 0.0, 0.0);
+    Isometry3d T = Isometry3d::Identity();
+    for (std::size_t j = i; j < i + n; ++j) {
+      const registration::MatchResult r = chain_icp.match(sweep(j + 1), sweep(j), step);
+      EXPECT_GT(r.inlier_ratio, 0.7) << "chain " << j + 1 << " -> " << j;
+      T = T * r.T_target_source;
+    }
+    return T;
+  }
+};
+
+TEST(ModelAccuracy, LidarModelAloneOnRealKittiSweepsTenApart) {
+  // obm-map's LiDAR model (obmnet_lidar.pt, config/map_kitti.yaml) alone, before any ICP, on real
+  // sweeps ten apart (~8 m, the pairs of its validation: (i, i+10)): its pose must bring the
+  // source closer to the target than not moving. Measured (mean over the four pairs):
+  //   shipped model RTE 3.17 m (RRE 24.9°: its weak part, see its card); an untrained network of
+  //   the same shape (tests/untrained_like, seed 7) 8.26 m; not moving 8.20 m.
+  // Bound: half the identity's error (the shipped model's 0.39× with a 1.3× margin; the untrained
+  // network 1.01×).
+  OBM_REQUIRE_SHARED_DATA("kitti/raw_drive_22/velodyne/000021.bin");
+  const RealKittiSweeps kitti;
+  const registration::ObmNetMatcher network(netParams(kModels + "obmnet_lidar.pt"), lidarIcp(),
+                                            lidarConfidence());
+  double net_t = 0.0, net_r = 0.0, identity_t = 0.0;
+  int n = 0;
+  for (const std::size_t i : {std::size_t{0}, std::size_t{4}, std::size_t{7}, std::size_t{11}}) {
+    const Isometry3d reference = kitti.reference(i, 10);
+    const Isometry3d T = network.match(kitti.sweep(i + 10), kitti.sweep(i)).T_target_source;
+    std::printf("sweeps %zu->%zu (%.2f m): network alone RRE %.2f deg RTE %.2f m\n", i + 10, i,
+                reference.translation().norm(), rreDeg(T, reference), rte(T, reference));
+    net_t += rte(T, reference);
+    net_r += rreDeg(T, reference);
+    identity_t += reference.translation().norm();
+    ++n;
+  }
+  std::printf("mean: network alone RTE %.2f m RRE %.2f deg; identity RTE %.2f m\n", net_t / n,
+              net_r / n, identity_t / n);
+  EXPECT_LT(net_t / n, 0.5 * identity_t / n) << "mean RTE of the network alone [m]";
 }
 
 TEST(ModelAccuracy, SmallLidarModelWithRansacOnRealKittiSweepsTenApart) {
@@ -612,19 +667,78 @@ registration::ObmNetIcpMatcher realFramesMatcher(const std::string& model, doubl
 }
 
 TEST(ModelAccuracy, IndoorModelOnPairsOfRealRgbdFrames) {
+  // obmnet_indoor.pt + ICP on the ten real frame pairs with the source turned 30° about the
+  // camera's y axis and moved 0.2 m (the frames themselves are 0.7–3° apart: unmoved, not moving
+  // would pass): the pose after ICP within 1° and 2 cm, which not moving misses on every pair.
+  // Measured: all ten, the worst 0.28° and 8 mm. (An untrained network in the model's place
+  // registers them too: the ICP behind it does the work from this start; the network alone is
+  // judged by IndoorModelAloneOnRealFragmentPairs.)
   OBM_REQUIRE_SHARED_DATA("rgbd_open3d/trajectory.log");
   const auto seq = io::RgbdSequence::openRedwood(test::sharedDataDir() + "/rgbd_open3d");
   ASSERT_GE(seq.size(), 5u);
   const auto refined = realFramesMatcher("obmnet_indoor.pt");
-  int ok = 0, n = 0;
+  const Isometry3d A = makeIsometry(
+      Eigen::AngleAxisd(30.0 * kDegToRad, Eigen::Vector3d::UnitY()).toRotationMatrix(),
+      Eigen::Vector3d(0.2, 0.0, 0.0));
+  int ok = 0, ok_identity = 0, n = 0;
   forEachRealFramePair(seq, [&](const PointCloud& s, const PointCloud& t, const Isometry3d& truth) {
-    const registration::MatchResult r = refined.match(s, t);
-    const double e_r = rreDeg(r.T_target_source, truth), e_t = rte(r.T_target_source, truth);
+    const PointCloud moved = s.transformed(A, s.frame_id);
+    const Isometry3d truth_moved = truth * A.inverse();
+    const registration::MatchResult r = refined.match(moved, t);
+    const double e_r = rreDeg(r.T_target_source, truth_moved);
+    const double e_t = rte(r.T_target_source, truth_moved);
     std::printf("+ICP RRE %.2f deg RTE %.3f m\n", e_r, e_t);
-    ok += (e_r < 5.0 && e_t < 0.1) ? 1 : 0;
+    ok += (e_r < 1.0 && e_t < 0.02) ? 1 : 0;
+    ok_identity += (rreDeg(Isometry3d::Identity(), truth_moved) < 1.0 &&
+                    rte(Isometry3d::Identity(), truth_moved) < 0.02)
+                       ? 1
+                       : 0;
     ++n;
   });
-  EXPECT_GE(ok, 8) << ok << " of " << n << " real frame pairs within 5° and 0.1 m";
+  EXPECT_EQ(ok_identity, 0) << "the moved pairs must not be registered by not moving";
+  EXPECT_GE(ok, 9) << ok << " of " << n << " real frame pairs within 1° and 2 cm";
+}
+
+TEST(ModelAccuracy, IndoorModelAloneOnRealFragmentPairs) {
+  // obm-map's indoor model (obmnet_indoor.pt, config/map_indoor.yaml) alone, before any ICP, on
+  // the pairs of its protocol (RIENet's 7Scenes: one fragment cut twice, turned up to 45°, moved
+  // up to 0.5 of its radius; the `indoor` preset) made from the five real frames of Open3D's data,
+  // its test group (no training run saw them): two pairs per frame. Measured (mean RRE of ten,
+  // pairs within 5°): the shipped model 1.10°, 9 of 10; an untrained network of the same shape
+  // (tests/untrained_like, seed 7) 19.4°, 1 of 10; not moving 52.9°, 0 of 10.
+  // Bounds: 2° (1.8× the measured mean) and 8 of 10.
+  OBM_REQUIRE_SHARED_DATA("rgbd_open3d/trajectory.log");
+  datasets::RgbdFragmentOptions fo;
+  fo.layout = "redwood";
+  fo.train_sequences = {test::sharedDataDir() + "/rgbd_open3d"};
+  fo.frame_step = 1;
+  const obmnet::ObjectSet set = datasets::loadRgbdFragments("", fo, 2048, 1);
+  ASSERT_EQ(set.train.size(), 5u);
+  obmnet::ObmNetRegistrar::Options o;
+  o.model_path = kModels + "obmnet_indoor.pt";
+  o.threads = 1;
+  const obmnet::ObmNetRegistrar net(o);
+  const auto proto = obmnet::PairProtocol::preset("indoor");
+  std::mt19937_64 rng(1);
+  double net_r = 0.0, id_r = 0.0;
+  int close = 0, n = 0;
+  for (int k = 0; k < 10; ++k) {
+    const auto& fragment = set.train[static_cast<std::size_t>(k % 5)];
+    const auto pair = obmnet::makePair(fragment, proto, rng);
+    const Isometry3d T = net.align(pair.source, pair.target).T_target_source;
+    const double e = rreDeg(T, pair.T_target_source);
+    const double e0 = rreDeg(Isometry3d::Identity(), pair.T_target_source);
+    std::printf("%s: network alone RRE %.2f deg RTE %.3f; identity RRE %.2f deg\n",
+                fragment.frame_id.c_str(), e, rte(T, pair.T_target_source), e0);
+    net_r += e;
+    id_r += e0;
+    close += e < 5.0 ? 1 : 0;
+    ++n;
+  }
+  std::printf("mean RRE: network alone %.2f deg, identity %.2f deg; %d of %d within 5 deg\n",
+              net_r / n, id_r / n, close, n);
+  EXPECT_LT(net_r / n, 2.0) << "mean RRE of the network alone [deg]";
+  EXPECT_GE(close, 8) << "pairs the network alone brings within 5°, of " << n;
 }
 
 TEST(ModelAccuracy, FramesModelAloneOnPairsOfRealRgbdFrames) {
