@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Fuzzes every reader of user input with libFuzzer (clang, AddressSanitizer + UBSan) and prints a
-# table: executions, coverage, crashes. Docs: docs/benchmarks.md, "Fuzzing".
+# table: executions, coverage, crashes. Docs: docs/testing.md, "Fuzzing".
 #
 #   scripts/fuzz.sh [SECONDS_PER_TARGET=60] [TARGETS="ply pcd off_obj kitti trajectories png jpeg hdf5 rawlog graph yaml model"]
 #   scripts/fuzz.sh runs:N [TARGETS]   # N executions per target (e.g. runs:10000000), timed

@@ -23,7 +23,7 @@ if [[ "${1:-}" == "--sanitize" ]]; then
   # front-end with OBMNet), and the end-to-end run of the apps (obm-sim → obm-map with OBMNet →
   # obm-octomap, obm-graph); the other command-line tests run in the Release build.
   # -O1 -g1 (line tables, what a sanitizer's stack trace needs): half the compile time of
-  # RelWithDebInfo's -O2 -g on the LibTorch translation units (docs/benchmarks.md, "Sanitizers").
+  # RelWithDebInfo's -O2 -g on the LibTorch translation units (docs/testing.md, "Sanitizers").
   "$ROOT/scripts/build.sh" "$BUILD" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DOBM_SANITIZE=ON -DOBM_BUILD_APPS=ON \
     "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" \
     "-DOBM_APPS=obm-map;obm-sim;obm-octomap;obm-graph" -DOBM_WITH_TORCH=ON

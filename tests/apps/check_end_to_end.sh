@@ -5,6 +5,8 @@
 # Written for the sanitizer build (scripts/test.sh --sanitize runs it there: the apps, the
 # front-end with OBMNet and LibTorch together under ASan + UBSan), and runs in any build:
 #   check_end_to_end.sh <bin dir> <source root> <scratch folder>
+# The ATE bounds are about 3× what the runs measure (LiDAR 0.0035 m, RGB-D 0.0022 m, the same in
+# the Release and the sanitizer builds): a change that makes the mapping measurably worse fails.
 set -euo pipefail
 bin="$1"
 root="$2"
@@ -28,7 +30,7 @@ for f in trajectory_kitti.txt trajectory_tum.txt graph.g2o metrics.json frames.c
 done
 [[ $(wc -l < "$work/drive_map/trajectory_kitti.txt") -eq 40 ]] || fail "obm-map (LiDAR): not 40 poses"
 ate=$(num ate_rmse_m "$work/drive_map/metrics.json")
-lt "$ate" 0.5 || fail "obm-map (LiDAR): ATE $ate m on 40 sweeps"
+lt "$ate" 0.01 || fail "obm-map (LiDAR): ATE $ate m on 40 sweeps (measured 0.0035 m)"
 
 run octomap "$bin/obm-octomap" --input "$work/drive" --trajectory "$work/drive_map" --out "$work/drive.bt" -q
 [[ -s "$work/drive.bt" ]] || fail "obm-octomap: no map"
@@ -44,5 +46,5 @@ run map_rgbd "$bin/obm-map" --config config/map_indoor.yaml --input "$work/walk"
   --matcher obmnet+icp -q
 [[ $(wc -l < "$work/walk_map/trajectory_tum.txt") -ge 30 ]] || fail "obm-map (RGB-D): not 30 poses"
 ate=$(num ate_rmse_m "$work/walk_map/metrics.json")
-lt "$ate" 0.1 || fail "obm-map (RGB-D): ATE $ate m on 30 frames"
+lt "$ate" 0.006 || fail "obm-map (RGB-D): ATE $ate m on 30 frames (measured 0.0022 m)"
 echo "end to end: LiDAR ATE $(num ate_rmse_m "$work/drive_map/metrics.json") m, RGB-D ATE $ate m"
