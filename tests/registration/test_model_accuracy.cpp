@@ -22,7 +22,7 @@
 //    the yaw hypotheses ranked by their RANSAC consensus against their fitness;
 //  - indoor (obmnet_indoor.pt): pairs of different real RGB-D frames (Open3D's five);
 //  - indoor (obmnet_indoor_frames.pt, trained on frame pairs with a spatial prior): the same
-//    pairs, the network alone against obmnet_indoor.pt's;
+//    pairs moved, and unmoved against obmnet_indoor.pt's, the networks alone;
 //  - objects (obmnet_objects_normals.pt): noisy crops of low overlap, the matcher with starts from
 //    a search over every rotation against without.
 #include <gtest/gtest.h>
@@ -777,6 +777,44 @@ TEST(ModelAccuracy, IndoorModelAloneOnRealFragmentPairs) {
               net_r / n, id_r / n, close, n);
   EXPECT_LT(net_r / n, 2.0) << "mean RRE of the network alone [deg]";
   EXPECT_GE(close, 8) << "pairs the network alone brings within 5°, of " << n;
+}
+
+TEST(ModelAccuracy, FramesModelAloneOnMovedRealRgbdFrames) {
+  // The frame model (obmnet_indoor_frames.pt, obm-bench's RGB-D frame-pair rows) alone, before any
+  // ICP, on the ten real frame pairs with the source turned 20° about the camera's y axis and
+  // moved 0.15 m. Measured (means of ten): the shipped model 6.80° and 0.226 m; an untrained
+  // network of the same shape (tests/untrained_like, seed 7) 4.95° and 0.376 m; not moving 19.62°
+  // and 0.159 m. So on real frames the trained weights are told from fresh ones by the
+  // translation only (the weighted SVD of an untrained network already turns these pairs most of
+  // the way), and neither network alone beats not moving in translation: the pose it hands to ICP
+  // is what counts (StartTurnsRecover…, SearchStartsRecover… below).
+  // Bounds: RTE 0.3 m (1.33× the measured), RRE half the identity's (the shipped model's 0.35×).
+  OBM_REQUIRE_SHARED_DATA("rgbd_open3d/trajectory.log");
+  const auto seq = io::RgbdSequence::openRedwood(test::sharedDataDir() + "/rgbd_open3d");
+  ASSERT_GE(seq.size(), 5u);
+  obmnet::ObmNetRegistrar::Options o;
+  o.model_path = kModels + "obmnet_indoor_frames.pt";
+  o.threads = 1;
+  const obmnet::ObmNetRegistrar net(o);
+  const Isometry3d A = makeIsometry(
+      Eigen::AngleAxisd(20.0 * kDegToRad, Eigen::Vector3d::UnitY()).toRotationMatrix(),
+      Eigen::Vector3d(0.15, 0.0, 0.0));
+  double net_r = 0.0, net_t = 0.0, id_r = 0.0;
+  int n = 0;
+  forEachRealFramePair(seq, [&](const PointCloud& s, const PointCloud& t, const Isometry3d& truth) {
+    const PointCloud moved = s.transformed(A, s.frame_id);
+    const Isometry3d truth_moved = truth * A.inverse();  // T_t_s' for s' = A·s
+    const Isometry3d T = net.align(moved, t).T_target_source;
+    std::printf("network alone %.2f deg %.3f m\n", rreDeg(T, truth_moved), rte(T, truth_moved));
+    net_r += rreDeg(T, truth_moved);
+    net_t += rte(T, truth_moved);
+    id_r += rreDeg(Isometry3d::Identity(), truth_moved);
+    ++n;
+  });
+  std::printf("mean: network alone %.2f deg %.3f m; identity %.2f deg\n", net_r / n, net_t / n,
+              id_r / n);
+  EXPECT_LT(net_t / n, 0.3) << "mean RTE of the network alone [m]";
+  EXPECT_LT(net_r / n, 0.5 * id_r / n) << "mean RRE of the network alone [deg]";
 }
 
 TEST(ModelAccuracy, FramesModelAloneOnPairsOfRealRgbdFrames) {
