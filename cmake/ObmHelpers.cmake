@@ -75,7 +75,8 @@ endfunction()
 
 # obm_torch_pch(<target>): precompiles LibTorch's <torch/torch.h> once for <target> and uses it in
 # those of its sources that include LibTorch (directly or through the network's torch headers);
-# the others are left alone. Parsing torch.h takes a third of such a translation unit's time.
+# the others are left alone. Parsing torch.h is a quarter to a third of such a unit's compile time
+# (docs/testing.md, "Build and CI").
 set(OBM_TORCH_INCLUDE_REGEX
   "#include [<\"](torch/|ATen/|obm/obmnet/(model|modules|svd|losses|nmm|teacher|collectives)\\.hpp|kernels\\.hpp|untrained_model\\.hpp)")
 function(obm_torch_pch tgt)
@@ -102,8 +103,8 @@ function(obm_torch_pch tgt)
       set_source_files_properties(${_s} DIRECTORY ${_dir} PROPERTIES SKIP_PRECOMPILE_HEADERS ON)
     endif()
   endforeach()
-  # A precompiled header pays for itself from two translation units on.
-  if(_n GREATER 1)
+  # The header takes 47 s to precompile and saves each unit 6–12 s: worth it from five units on.
+  if(_n GREATER_EQUAL 5)
     target_precompile_headers(${tgt} PRIVATE <torch/torch.h>)
   endif()
 endfunction()
