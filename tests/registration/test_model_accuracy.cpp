@@ -160,6 +160,11 @@ double median(std::vector<double> v) {
   return 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
 
+void printMedians(const ObjectErrors& e) {
+  std::printf("median RRE: network %.2f deg, identity %.2f deg\n", median(e.network),
+              median(e.identity));
+}
+
 }  // namespace
 
 // scripts/test.sh fetches the meshes; where Debian's archive is out of reach it goes on without
@@ -184,8 +189,7 @@ TEST(ModelAccuracy, ObjectModelOnPartialPairsOfUnseenObjects) {
   OBM_REQUIRE_CGAL_DATA();
   const auto e = objectModelOnUnseenPairs(kModels + "obmnet_objects.pt", "partial", 1024, 0);
   ASSERT_FALSE(e.network.empty());
-  std::printf("median RRE: network %.2f deg, identity %.2f deg\n", median(e.network),
-              median(e.identity));
+  printMedians(e);
   EXPECT_LT(median(e.network), 3.5) << "median network RRE [deg]";
 }
 
@@ -197,8 +201,7 @@ TEST(ModelAccuracy, NoiseModelOnJitteredPairsOfUnseenObjects) {
   OBM_REQUIRE_CGAL_DATA();
   const auto e = objectModelOnUnseenPairs(kModels + "obmnet_objects_noise.pt", "jitter", 1024, 0);
   ASSERT_FALSE(e.network.empty());
-  std::printf("median RRE: network %.2f deg, identity %.2f deg\n", median(e.network),
-              median(e.identity));
+  printMedians(e);
   EXPECT_LT(median(e.network), 2.5) << "median network RRE [deg]";
 }
 
