@@ -68,8 +68,8 @@ expect_on_request "icp@truth" 0.05 "exact pairs"
 # The network alone started at the truth (`obmnet@truth`): on shared samples it stays.
 expect_on_request "obmnet@truth" 0.1 "exact pairs started at the truth"
 # Not moving (`identity`, on request) scores the pairs' own motion: far from zero here (the
-# sources are moved by up to 14°), and not in the default list. A negative --spatial-prior is
-# refused naming the option.
+# sources are moved by up to 14°), and not in the default list. A negative spatial prior is
+# refused naming the key.
 ! grep -q '"identity"' "$work/out.json" || fail "identity listed by default"
 "$tool" --pairs "$work/pairs" --json "$work/identity.json" --methods "identity" -q \
   > "$work/log_id.txt" 2>&1 || { cat "$work/log_id.txt"; fail "obm-bench --methods identity"; }
@@ -92,10 +92,10 @@ if "$tool" --pairs "$work/pairs" --start-near 200,0.1 -q > /dev/null 2> "$work/n
   fail "--start-near 200,0.1 accepted"
 fi
 grep -q 'start-near' "$work/near.err" || { cat "$work/near.err"; fail "the error does not name --start-near"; }
-if "$tool" --pairs "$work/pairs" --spatial-prior -0.5 -q > /dev/null 2> "$work/sp.err"; then
-  fail "--spatial-prior -0.5 accepted"
+if "$tool" --pairs "$work/pairs" --set matcher.obmnet.spatial_sigma=-0.5 -q > /dev/null 2> "$work/sp.err"; then
+  fail "spatial_sigma -0.5 accepted"
 fi
-grep -q 'spatial-prior' "$work/sp.err" || { cat "$work/sp.err"; fail "the error does not name --spatial-prior"; }
+grep -q 'spatial_sigma' "$work/sp.err" || { cat "$work/sp.err"; fail "the error does not name spatial_sigma"; }
 # scripts/turn_pair_sources.py (on pairs as --write-pairs writes them): turned by 10° about y
 # they stay exact (gt.txt rewritten), so the refinement started at the new truth stays there and
 # ICP from the identity, now 10° further off, still registers these easy pairs; a missing folder
@@ -107,55 +107,57 @@ python3 "$src/scripts/turn_pair_sources.py" "$work/written" "$work/turned" --axi
 "$tool" --pairs "$work/turned" --json "$work/turned.json" --methods "icp,icp@truth" -q \
   > "$work/log4.txt" 2>&1 || { cat "$work/log4.txt"; fail "obm-bench on turned pairs"; }
 for m in icp icp@truth; do expect_mie_below "$work/turned.json" "$m" 0.05 "turned pairs"; done
-# More starts (--start-turns): the two rows appear only with it, and on the turned pairs (one
-# of the starts, −10° about y, is their original pose) both register them; an axis other than
-# x, y, z is refused naming the option.
-! grep -q '"obmnet+icp-turns"' "$work/out.json" || fail "obmnet+icp-turns listed without --start-turns"
-"$tool" --pairs "$work/turned" --json "$work/turns.json" --start-turns 10 --start-turn-axes y \
-  --methods "obmnet+icp-turns,icp-turns" -q > "$work/log5.txt" 2>&1 \
-  || { cat "$work/log5.txt"; fail "obm-bench --start-turns"; }
+# More starts (benchmark.start_turn_deg): the two rows are not listed by default and refused
+# without turns, naming the key; on the turned pairs (one of the starts, −10° about y, is their
+# original pose) both register them; an axis other than x, y, z is refused naming the key.
+! grep -q '"obmnet+icp-turns"' "$work/out.json" || fail "obmnet+icp-turns listed by default"
+if "$tool" --pairs "$work/turned" --methods icp-turns -q > /dev/null 2> "$work/noturn.err"; then
+  fail "icp-turns accepted without start turns"
+fi
+grep -q 'benchmark.start_turn_deg' "$work/noturn.err" || { cat "$work/noturn.err"; fail "the error does not name benchmark.start_turn_deg"; }
+"$tool" --pairs "$work/turned" --json "$work/turns.json" --set benchmark.start_turn_deg=10 \
+  --set matcher.obmnet.start_turn_axes=y --methods "obmnet+icp-turns,icp-turns" -q \
+  > "$work/log5.txt" 2>&1 || { cat "$work/log5.txt"; fail "obm-bench with start turns"; }
 for m in obmnet+icp-turns icp-turns; do expect_mie_below "$work/turns.json" "$m" 0.05 "turned pairs"; done
 # With Open3D: FGR's pose as a start — the network's pass and ICP from it (`obmnet+icp@fgr`), and
 # the project's ICP from it alone (`o3d_fgr+obm_icp`) — registers these easy pairs.
 if grep -q '"o3d_fgr"' "$work/out.json"; then
-  "$tool" --pairs "$work/turned" --json "$work/fgr.json" --start-turns 10 \
+  "$tool" --pairs "$work/turned" --json "$work/fgr.json" --set benchmark.start_turn_deg=10 \
     --methods "obmnet+icp@fgr,o3d_fgr+obm_icp" -q > "$work/log6.txt" 2>&1 \
     || { cat "$work/log6.txt"; fail "obm-bench FGR-start rows"; }
   for m in obmnet+icp@fgr o3d_fgr+obm_icp; do expect_mie_below "$work/fgr.json" "$m" 0.05 "turned pairs"; done
 fi
-if "$tool" --pairs "$work/pairs" --start-turns 10 --start-turn-axes xw -q > /dev/null \
+if "$tool" --pairs "$work/pairs" --set matcher.obmnet.start_turn_axes=xw -q > /dev/null \
   2> "$work/axes.err"; then
-  fail "--start-turn-axes xw accepted"
+  fail "start_turn_axes xw accepted"
 fi
-grep -q 'start-turn-axes' "$work/axes.err" || { cat "$work/axes.err"; fail "the error does not name --start-turn-axes"; }
+grep -q 'start_turn_axes' "$work/axes.err" || { cat "$work/axes.err"; fail "the error does not name start_turn_axes"; }
 if python3 "$src/scripts/turn_pair_sources.py" "$work/none" "$work/t2" --axis x --deg 5 \
   2> "$work/turn.err"; then
   fail "turn_pair_sources.py accepted a missing folder"
 fi
 grep -q 'none/gt.txt' "$work/turn.err" || fail "turn_pair_sources.py: $(cat "$work/turn.err")"
-# The ICP's normal neighbourhood: fewer than 3 points make no plane and are refused by name.
-if "$tool" --pairs "$work/pairs" --icp-normal-neighbors 2 -q > /dev/null 2> "$work/nn.err"; then
-  fail "--icp-normal-neighbors 2 accepted"
-fi
-grep -q 'icp-normal-neighbors' "$work/nn.err" \
-  || fail "--icp-normal-neighbors not named: $(cat "$work/nn.err")"
-# Coloured ICP needs colours: pairs without them are refused, naming the option.
-if "$tool" --pairs "$work/pairs" --icp-color-weight 0.3 -q > /dev/null 2> "$work/cw.err"; then
-  fail "--icp-color-weight accepted on colourless pairs"
-fi
-grep -q 'icp-color-weight' "$work/cw.err" \
-  || fail "--icp-color-weight not named: $(cat "$work/cw.err")"
-# Coloured inliers need coloured ICP: without it the option is refused by name.
-if "$tool" --pairs "$work/pairs" --color-inlier 0.05 -q > /dev/null 2> "$work/ci.err"; then
-  fail "--color-inlier accepted without coloured ICP"
-fi
-grep -q 'color-inlier' "$work/ci.err" || fail "--color-inlier not named: $(cat "$work/ci.err")"
-# The last narrow-kernel stage of the project's ICP: a negative scale is refused.
-if "$tool" --pairs "$work/pairs" --icp-final-kernel -0.1 -q > /dev/null 2> "$work/fk.err"; then
-  fail "--icp-final-kernel -0.1 accepted"
-fi
-grep -q 'icp-final-kernel' "$work/fk.err" \
-  || fail "--icp-final-kernel not named: $(cat "$work/fk.err")"
+# Preset keys: out-of-range values and misspelt keys are refused, naming the key; an unknown
+# preset or row is refused, naming it and listing the known ones.
+expect_refused() {  # WHAT NAMED ARGS...: obm-bench ARGS fails and its error names NAMED
+  local what="$1" named="$2"
+  shift 2
+  if "$tool" --pairs "$work/pairs" "$@" -q > /dev/null 2> "$work/refused.err"; then
+    fail "$what accepted"
+  fi
+  grep -q -- "$named" "$work/refused.err" || fail "$what: the error does not name $named: $(cat "$work/refused.err")"
+}
+expect_refused "normal_neighbors 2" normal_neighbors --set matcher.icp.normal_neighbors=2
+expect_refused "final_kernel_scale -0.1" final_kernel_scale --set matcher.icp.final_kernel_scale=-0.1
+expect_refused "a misspelt key" colour_weight --set matcher.icp.colour_weight=0.3
+expect_refused "an unknown preset" "presets/nowhere.yaml" --preset nowhere
+expect_refused "an unknown method" "obmnet+icp+search" --methods obmnet+bogus
+# The preset is chosen from the clouds (object-scale clouds about their centroid: the model of
+# independent samplings) and named in the report; --preset names another one.
+grep -q 'preset objects_resampled' "$work/out.json" || fail "--pairs did not choose objects_resampled"
+"$tool" --pairs "$work/pairs" --preset objects --methods icp --json "$work/objects.json" -q \
+  > /dev/null 2>&1 || fail "obm-bench --preset objects"
+grep -q 'preset objects"' "$work/objects.json" || fail "--preset objects not used"
 [[ $(wc -l < "$work/pairs.csv") -eq 3 ]] || fail "pairs.csv: header + 2 rows expected"
 head -1 "$work/pairs.csv" | grep -q '^pair,name,overlap,obmnet_rre_deg' || fail "pairs.csv header"
 # Names are quoted fields (a kitti loop pair is named "seq:757->0 (loop, yaw 28°)"): every row
@@ -165,7 +167,7 @@ python3 -c 'import csv,sys; r=list(csv.reader(open(sys.argv[1]))); sys.exit(any(
 
 # Pairs generated from meshes are also scored up to the objects' symmetries (docs/obm-bench.md):
 # a second table, `recall_up_to_symmetry` / `median_surface_error` in the JSON, an `_surface`
-# column per method; `--surface-error 0` turns it off.
+# column per method; `benchmark.surface_error=0` turns it off.
 if [[ -n "${OBM_CGAL_DATA:-}" && -d "${OBM_CGAL_DATA}" ]]; then
   "$tool" --protocol resampled --group unseen -n 3 --seed 1 --methods icp -q \
     --json "$work/sym.json" --per-pair "$work/sym.csv" > "$work/sym.md" 2>&1 \
@@ -176,9 +178,10 @@ if [[ -n "${OBM_CGAL_DATA:-}" && -d "${OBM_CGAL_DATA}" ]]; then
   awk -v r="$r" -v e="$e" 'BEGIN { exit !(r >= 0 && r <= 1 && e >= 0) }' \
     || fail "recall_up_to_symmetry $r / median_surface_error $e out of range"
   head -1 "$work/sym.csv" | grep -q 'icp_ok,icp_surface' || fail "sym.csv: no icp_surface column"
-  "$tool" --protocol resampled --group unseen -n 3 --seed 1 --methods icp -q --surface-error 0 \
-    --json "$work/nosym.json" > /dev/null 2>&1 || fail "obm-bench --surface-error 0"
-  ! grep -q recall_up_to_symmetry "$work/nosym.json" || fail "--surface-error 0 still scored"
+  "$tool" --protocol resampled --group unseen -n 3 --seed 1 --methods icp -q \
+    --set benchmark.surface_error=0 --json "$work/nosym.json" > /dev/null 2>&1 \
+    || fail "obm-bench with benchmark.surface_error=0"
+  ! grep -q recall_up_to_symmetry "$work/nosym.json" || fail "surface_error 0 still scored"
 fi
 
 # Bad input: the file and line are named, exit code 1, nothing written.

@@ -16,18 +16,14 @@
 
 #ifdef OBM_REGISTRATION_HAS_OBMNET
 #include "obm/obmnet/registrar.hpp"
+#include "obm/registration/obmnet_options.hpp"
 #endif
 
 namespace obm::registration {
 
 #ifdef OBM_REGISTRATION_HAS_OBMNET
 
-namespace {
-
-/// `network_alone`: for ObmNetMatcher, whose pose is the network's own. The matchers that refine
-/// judge the hypotheses by their refinements and confidence, and a start kept by
-/// `min_consensus` would take from ICP the hypothesis it could still have registered.
-obmnet::ObmNetRegistrar makeRegistrar(const ObmNetMatcherParams& p, bool network_alone = false) {
+obmnet::ObmNetRegistrar::Options registrarOptions(const ObmNetMatcherParams& p, bool network_alone) {
   if (p.model_path.empty()) throw ConfigError("obmnet matcher: model_path is empty");
   if (p.num_points < 0) throw ConfigError("obmnet matcher: num_points must be >= 0");
   if (p.threads < 1) throw ConfigError("obmnet matcher: threads must be >= 1");
@@ -48,7 +44,13 @@ obmnet::ObmNetRegistrar makeRegistrar(const ObmNetMatcherParams& p, bool network
   o.select_by_consensus = p.select_by_consensus;
   o.start_heading_margin = p.start_heading_margin;
   o.min_consensus = network_alone ? p.min_consensus : 0.0;
-  return obmnet::ObmNetRegistrar(o);
+  return o;
+}
+
+namespace {
+
+obmnet::ObmNetRegistrar makeRegistrar(const ObmNetMatcherParams& p, bool network_alone = false) {
+  return obmnet::ObmNetRegistrar(registrarOptions(p, network_alone));
 }
 
 /// The network stage shared by both matchers.

@@ -1,4 +1,4 @@
-#include "bench.hpp"
+#include "obm/bench/scoring.hpp"
 
 #include <algorithm>
 #include <cmath>

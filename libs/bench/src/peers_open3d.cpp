@@ -1,5 +1,5 @@
 // The classical peers of obm-bench, run in-process through Open3D 0.16 (Debian libopen3d-dev).
-#include "peers.hpp"
+#include "obm/bench/peers.hpp"
 
 #include "obm/core/errors.hpp"
 
