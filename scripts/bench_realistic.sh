@@ -39,9 +39,10 @@ for set in $sets; do
       fi
       for cls in k1 k5 k10 k20 loop; do
         echo "[bench-realistic] lidar $cls"
-        "$bin" --model "$lidar_model" --config "$root/config/obmnet/train_lidar_pairs.yaml" \
+        # the lidar preset (config/presets/lidar.yaml): data train_lidar_pairs.yaml, recall 1° / 0.3 m
+        "$bin" --model "$lidar_model" \
           --protocol kitti --sequence "$seq" --pair-class "$cls" -n "$pairs" --seed 1 -q \
-          --threads "$threads" --recall-deg 1 --recall-trans 0.3 \
+          --threads "$threads" \
           --methods "obmnet,obmnet+icp,icp,o3d_icp,o3d_fgr,o3d_ransac,o3d_fgr+icp" \
           --json "$out/lidar_$cls.json" --markdown "$out/lidar_$cls.md" \
           --per-pair "$out/lidar_$cls.csv"

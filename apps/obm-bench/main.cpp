@@ -19,6 +19,7 @@
 #include "obm/core/errors.hpp"
 #include "obm/core/log.hpp"
 #include "obm/registration/free_space.hpp"
+#include "obm/registration/obmnet_matcher.hpp"
 
 using namespace obm;
 
@@ -193,9 +194,15 @@ int main(int argc, char** argv) {
 
     const std::vector<std::string> names =
         methods_arg.empty() ? preset.bench.rows : splitList(methods_arg);
-    const auto rows = bench::expandRows(names, methods_arg.empty() ? preset.file + ": benchmark.rows"
-                                                                   : std::string("--methods"),
-                                        run.coloured);
+    auto rows = bench::expandRows(names, methods_arg.empty() ? preset.file + ": benchmark.rows"
+                                                             : std::string("--methods"),
+                                  run.coloured);
+    if (methods_arg.empty() && !registration::obmNetAvailable()) {  // the classical rows only
+      OBM_LOG_WARN("obm-bench", "this build has no OBMNet (LibTorch): the network rows are left out");
+      rows.erase(std::remove_if(rows.begin(), rows.end(),
+                                [](const auto& r) { return r.name.rfind("obm", 0) == 0; }),
+                 rows.end());
+    }
     if (std::any_of(rows.begin(), rows.end(),
                     [](const auto& r) { return r.row == bench::Row::ObmnetTeacher; }))
       run.teacher_config = apps::findConfigFile("obmnet/train_objects_selftrain_plane.yaml");

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 
 #include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
@@ -304,6 +305,64 @@ TEST(RegistrationConfig, ShippedIcpConfigHoldsTheDefaults) {
   EXPECT_EQ(c.confidence.conditioning_ref, cd.conditioning_ref);
   EXPECT_EQ(c.confidence.degeneracy_threshold, cd.degeneracy_threshold);
   EXPECT_EQ(c.confidence.color_inlier_threshold, cd.color_inlier_threshold);
+}
+
+TEST(RegistrationConfig, EveryShippedPresetLoadsAndNamesAShippedModel) {
+  // config/presets/<kind>.yaml: the matcher of each data kind, read as obm-bench, obm-map and the
+  // MRPT bridge read it; its model path is relative to the preset and names a shipped model.
+  for (const char* kind : {"lidar", "rgbd_frames", "objects", "objects_noise", "objects_resampled",
+                           "fragments"}) {
+    SCOPED_TRACE(kind);
+    const std::string file = obm::test::sourceDir() + "/config/presets/" + kind + ".yaml";
+    const registration::ScanMatcherConfig c =
+        registration::ScanMatcherConfig::load(ConfigNode::loadFile(file).child("matcher"));
+    EXPECT_EQ(c.type, registration::MatcherKind::ObmNetIcp);
+    EXPECT_NE(c.obmnet.model_path.find("/share/obmslam/models/obmnet_"), std::string::npos);
+    EXPECT_GT(c.obmnet.search_candidates, 0);
+  }
+}
+
+TEST(RegistrationConfig, PresetKeyReadsThePresetWithOverridesLaidOver) {
+  // `preset:` (relative to the YAML naming it) gives the preset's matcher; keys beside it
+  // replace the preset's one by one, nested maps merged key by key.
+  const std::string dir = obm::test::sourceDir() + "/config";
+  const auto plain = registration::ScanMatcherConfig::load(
+      ConfigNode::loadFile(dir + "/presets/lidar.yaml").child("matcher"));
+  const auto node = ConfigNode::fromString(R"(
+preset: presets/lidar.yaml
+obmnet:
+  pre_align: true
+  search: {cell: 2.0}
+icp: {kernel_scale: 0.2}
+)",
+                                           dir + "/map_test.yaml");
+  const auto c = registration::ScanMatcherConfig::load(node);
+  EXPECT_EQ(c.type, plain.type);
+  EXPECT_EQ(std::filesystem::path(c.obmnet.model_path).lexically_normal(),
+            std::filesystem::path(plain.obmnet.model_path).lexically_normal());
+  EXPECT_TRUE(c.obmnet.pre_align);
+  EXPECT_FALSE(plain.obmnet.pre_align);
+  EXPECT_EQ(c.obmnet.search.cell, 2.0);
+  EXPECT_EQ(c.obmnet.search.heading_range_deg, plain.obmnet.search.heading_range_deg);
+  EXPECT_EQ(c.obmnet.search_candidates, plain.obmnet.search_candidates);
+  EXPECT_EQ(c.icp.kernel_scale, 0.2);
+  EXPECT_EQ(c.icp.max_correspondence_distance, plain.icp.max_correspondence_distance);
+  EXPECT_EQ(c.confidence.inlier_threshold, plain.confidence.inlier_threshold);
+  // A missing preset and a misspelt override are named.
+  try {
+    registration::ScanMatcherConfig::load(
+        ConfigNode::fromString("preset: presets/nowhere.yaml", dir + "/map_test.yaml"));
+    ADD_FAILURE() << "a missing preset was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("nowhere.yaml"), std::string::npos) << e.what();
+  }
+  try {
+    registration::ScanMatcherConfig::load(ConfigNode::fromString(
+        "preset: presets/lidar.yaml\nicp: {kernel_scal: 0.2}", dir + "/map_test.yaml"));
+    ADD_FAILURE() << "a misspelt override was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("kernel_scal"), std::string::npos) << e.what();
+  }
 }
 
 #ifdef OBM_TEST_WITHOUT_OBMNET

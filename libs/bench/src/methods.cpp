@@ -11,12 +11,19 @@
 
 #include "obm/config/config_node.hpp"
 #include "obm/core/errors.hpp"
-#include "obm/obmnet/registrar.hpp"
 #include "obm/registration/correlative_search.hpp"
 #include "obm/registration/free_space.hpp"
 #include "obm/registration/icp.hpp"
 #include "obm/registration/obmnet_matcher.hpp"
+#ifdef OBM_BENCH_HAS_OBMNET
+#include "obm/obmnet/config.hpp"
+#include "obm/obmnet/registrar.hpp"
 #include "obm/registration/obmnet_options.hpp"
+#else
+namespace obm::obmnet {
+struct TeacherParams {};
+}  // namespace obm::obmnet
+#endif
 
 namespace obm::bench {
 namespace reg = registration;
@@ -125,6 +132,9 @@ Method matcherMethod(std::string name, std::shared_ptr<const reg::ScanMatcher> m
 /// ranks them (the registrar's score discounted by the free-space conflicts).
 Method registrarMethod(std::string name, const reg::ObmNetMatcherParams& p, bool keep_start,
                        const obmnet::TeacherParams* teacher) {
+#ifndef OBM_BENCH_HAS_OBMNET
+  throw ConfigError(name + ": this build has no OBMNet (LibTorch); the classical rows run without it");
+#else
   obmnet::ObmNetRegistrar::Options o = reg::registrarOptions(p, true);
   o.keep_start_if_fitter = keep_start;
   if (teacher) {
@@ -157,6 +167,7 @@ Method registrarMethod(std::string name, const reg::ObmNetMatcherParams& p, bool
               out.scores.push_back({"consensus", r.hypotheses[k].consensus});
             return out;
           }};
+#endif
 }
 
 /// ICP from each of `starts` against one prepared target, keeping the result with the largest
@@ -278,8 +289,12 @@ class Registry {
       case Row::ObmnetTeacher: {
         if (run_.teacher_config.empty())
           throw ConfigError("obmnet+teacher: no teacher config given");
+#ifdef OBM_BENCH_HAS_OBMNET
         const obmnet::TeacherParams teacher = obmnet::TeacherParams::load(
             ConfigNode::loadFile(run_.teacher_config).child("train").child("teacher"));
+#else
+        const obmnet::TeacherParams teacher;
+#endif
         return registrarMethod(r.name, base_, false, &teacher);
       }
       case Row::ObmnetRansac:

@@ -161,7 +161,53 @@ MatcherKind parseMatcherKind(const std::string& name, const std::string& where) 
   throw ConfigError(where + ": unknown matcher type '" + name + "' (" + names + ")");
 }
 
-ScanMatcherConfig ScanMatcherConfig::load(const ConfigNode& node) {
+namespace {
+
+/// `over` merged into a copy of `base`: maps key by key (recursively), anything else replaced.
+YAML::Node mergedYaml(const YAML::Node& base, const YAML::Node& over) {
+  if (!base.IsMap() || !over.IsMap()) return YAML::Clone(over);
+  YAML::Node out = YAML::Clone(base);
+  for (const auto& kv : over) {
+    const std::string key = kv.first.as<std::string>();
+    out[key] = out[key] ? mergedYaml(out[key], kv.second) : YAML::Clone(kv.second);
+  }
+  return out;
+}
+
+/// A `matcher:` map with `preset: FILE` (relative to the YAML that names it): the preset's
+/// `matcher:` with this map's other keys laid over it. The preset's model path is made absolute
+/// first, since the merged map is read as this file's.
+ConfigNode withPreset(const ConfigNode& node) {
+  const std::string name = node.required<std::string>("preset");
+  std::filesystem::path file(name);
+  if (file.is_relative() && !node.file().empty())
+    file = std::filesystem::path(node.file()).parent_path() / file;
+  if (!std::filesystem::exists(file))
+    throw ConfigError(node.where("preset") + ": preset '" + file.string() + "' not found");
+  const ConfigNode root = ConfigNode::loadFile(file.string());
+  if (!root.has("matcher"))
+    throw ConfigError(root.where("matcher") + ": a preset needs a `matcher:` map");
+  YAML::Node base = YAML::Clone(root.child("matcher").yaml());
+  if (base["obmnet"] && base["obmnet"]["model_path"]) {
+    const std::filesystem::path model(base["obmnet"]["model_path"].as<std::string>());
+    if (model.is_relative())
+      base["obmnet"]["model_path"] =
+          (file.parent_path() / model).lexically_normal().string();
+  }
+  YAML::Node over = YAML::Clone(node.yaml());
+  over.remove("preset");
+  // The key path of `node` (where() is "file: path"), so errors keep naming this file's keys.
+  const std::string where = node.where();
+  const std::string prefix = (node.file().empty() ? std::string("<config>") : node.file()) + ": ";
+  const std::string path = where.rfind(prefix, 0) == 0 ? where.substr(prefix.size()) : where;
+  return ConfigNode(mergedYaml(base, over), node.file(), path);
+}
+
+}  // namespace
+
+ScanMatcherConfig ScanMatcherConfig::load(const ConfigNode& node_in) {
+  if (node_in.has("preset")) return load(withPreset(node_in));
+  const ConfigNode& node = node_in;
   ScanMatcherConfig c;
   node.checkKeys({"type", "icp", "obmnet", "confidence"});
   std::string type = toString(c.type);

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "obm/obmnet/object_set.hpp"
-#include "obm/obmnet/trainer.hpp"
+#include "obm/obmnet/data.hpp"
 
 namespace obm {
 class ConfigNode;

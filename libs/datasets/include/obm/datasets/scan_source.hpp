@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "obm/obmnet/trainer.hpp"
+#include "obm/obmnet/data.hpp"
 
 namespace obm {
 class ConfigNode;

@@ -4,6 +4,7 @@
 /// the object set split, the pair protocols (clean, jitter, RIENet's outliers, partial crops),
 /// and the pair normalisation shared by the trainer and the inference API.
 #include <cstdint>
+#include <functional>
 #include <random>
 #include <string>
 #include <vector>
@@ -155,6 +156,10 @@ struct PairNormalization {
   /// The inverse: the transform the network should find for a known original T.
   Isometry3d normalize(const Isometry3d& T_target_source) const;
 };
+
+/// Draws one training pair for a (1-based) epoch; called with the trainer's generator (seeded per
+/// epoch, so a resumed run sees the same pairs).
+using PairSampler = std::function<RegistrationPair(std::mt19937_64& rng, int epoch)>;
 
 }  // namespace obmnet
 }  // namespace obm

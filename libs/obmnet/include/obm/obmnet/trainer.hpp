@@ -130,9 +130,6 @@ struct ValidationScores {
 ///   best.pt         best model on the validation split (a model file for loadModel)
 ///   train_log.csv   one row per epoch
 ///   config.yaml     the configuration actually used
-/// Draws one training pair for a (1-based) epoch; called with the trainer's generator (seeded per
-/// epoch, so a resumed run sees the same pairs).
-using PairSampler = std::function<RegistrationPair(std::mt19937_64& rng, int epoch)>;
 
 /// The protocol of epoch `epoch` under a curriculum of `curriculum_epochs` epochs: the crop and the
 /// jitter grow linearly from none (a clean pair) to `target`'s, reached at epoch

@@ -7,6 +7,7 @@
 /// obmnet: {model_path: ../../share/obmslam/obmnet_kitti.pt, pre_align: true}
 /// confidence: {inlier_threshold: 0.2}
 /// \endcode
+/// or a preset with overrides: `{preset: ../presets/lidar.yaml, obmnet: {threads: 1}}`.
 /// See config/registration/*.yaml for every key with its default.
 #include <memory>
 #include <string>
@@ -45,7 +46,9 @@ struct ScanMatcherConfig {
   ConfidenceParams confidence;
 
   /// Reads `type`, `icp`, `obmnet` (required for the OBMNet types), `confidence`; unknown keys
-  /// and unknown types throw ConfigError naming file and key.
+  /// and unknown types throw ConfigError naming file and key. With `preset: FILE` (a matcher
+  /// preset, config/presets/<kind>.yaml, relative to this YAML) the preset's `matcher:` is read
+  /// with this map's other keys laid over it, key by key.
   static ScanMatcherConfig load(const ConfigNode& node);
 };
 
