@@ -1,4 +1,4 @@
-// The shipped LiDAR model on the real KITTI HDL-64E sample sweeps (no ground truth), so the
+// obm-map's LiDAR matcher on the real KITTI HDL-64E sample sweeps (no ground truth), so the
 // simulator is never the only judge: the front-end's loop / recovery matcher (OBMNet + ICP, with
 // config/map_kitti.yaml's `matcher` settings) registers every pair of the 6 consecutive sweeps from
 // the identity, and
@@ -19,24 +19,31 @@
 namespace obm {
 namespace {
 
-const std::string kModel = obm::test::modelsDir() + "obmnet_lidar.pt";
+/// A match loop closure takes (docs/obm-map.md, "Verification"): converged, or the iteration cap
+/// reached at the final gate (the last step still above the 0.1 mm tolerance); the pose is what
+/// the tests judge.
+bool usable(const registration::MatchResult& r) {
+  return r.ok() || r.status == registration::MatchStatus::NotConverged;
+}
 
 class KittiObmNet : public ::testing::Test {
  protected:
   void SetUp() override {
     OBM_REQUIRE_SHARED_DATA("kitti/hdl64_sample/000005.bin");
-    ASSERT_TRUE(std::filesystem::exists(kModel))
-        << kModel << ": the LiDAR model is part of the project (obm-train, see its model card)";
-    // The matcher exactly as obm-map builds it for loop closure (the `fallback` key is obm-map's).
-    const auto map_cfg =
-        ConfigNode::loadFile(obm::test::sourceDir() + "/config/map_kitti.yaml");
-    const auto m = map_cfg.child("matcher");
-    registration::ScanMatcherConfig cfg;
-    cfg.type = registration::MatcherKind::ObmNetIcp;
-    cfg.icp = registration::IcpParams::load(m.child("icp"));
-    cfg.confidence = registration::ConfidenceParams::load(m.child("confidence"));
-    cfg.obmnet = registration::ObmNetMatcherParams::load(m.child("obmnet"));
-    cfg.obmnet.model_path = kModel;
+    // The matcher exactly as obm-map builds it for loop closure: config/map_kitti.yaml's
+    // `matcher:` (the LiDAR preset with its keyframe ICP; `fallback` is obm-map's key), its model
+    // taken from the models folder under test (OBM_TEST_MODELS).
+    const std::string file = obm::test::sourceDir() + "/config/map_kitti.yaml";
+    YAML::Node m = YAML::Clone(ConfigNode::loadFile(file).child("matcher").yaml());
+    m.remove("fallback");
+    registration::ScanMatcherConfig cfg =
+        registration::ScanMatcherConfig::load(ConfigNode(m, file, "matcher"));
+    ASSERT_EQ(cfg.type, registration::MatcherKind::ObmNetIcp);
+    const std::string model = obm::test::modelsDir() +
+                              std::filesystem::path(cfg.obmnet.model_path).filename().string();
+    ASSERT_TRUE(std::filesystem::exists(model))
+        << model << ": the LiDAR model is part of the project (obm-train, see its model card)";
+    cfg.obmnet.model_path = model;
     matcher = registration::makeScanMatcher(cfg);
     cfg.type = registration::MatcherKind::ObmNet;
     network = registration::makeScanMatcher(cfg);
@@ -57,7 +64,7 @@ TEST_F(KittiObmNet, TwoStepCompositionAgreesWithTheDirectRegistration) {
     const registration::MatchResult r01 = matcher->match(keyframe[a + 1], keyframe[a]);
     const registration::MatchResult r12 = matcher->match(keyframe[a + 2], keyframe[a + 1]);
     const registration::MatchResult r02 = matcher->match(keyframe[a + 2], keyframe[a]);
-    for (const auto* r : {&r01, &r12, &r02}) ASSERT_TRUE(r->ok()) << r->message;
+    for (const auto* r : {&r01, &r12, &r02}) ASSERT_TRUE(usable(*r)) << r->message;
     const auto [dt, dr] =
         test::poseError(r02.T_target_source, r01.T_target_source * r12.T_target_source);
     EXPECT_LT(dt, 0.05) << "sweeps " << a << ".." << a + 2 << ": translation [m]";
@@ -75,7 +82,7 @@ TEST_F(KittiObmNet, EveryPairAgreesWithDenseIcpOnTheFullSweeps) {
     const registration::PreparedTarget target = icp.prepare(full[a]);
     for (std::size_t b = a + 1; b < 6 && b <= a + 2; ++b) {
       const registration::MatchResult ours = matcher->match(keyframe[b], keyframe[a]);
-      ASSERT_TRUE(ours.ok()) << ours.message;
+      ASSERT_TRUE(usable(ours)) << ours.message;
       // The dense reference starts from our pose: it judges the pose, it does not compete on
       // the basin of convergence.
       const registration::MatchResult ref = icp.match(full[b], target, ours.T_target_source);

@@ -4,8 +4,8 @@
 /// or observations in, an mrpt::poses::CPose3DPDFGaussian out, in the argument order of MRPT's
 /// own mrpt::slam::CICP::Align3DPDF(m1, m2, initial): the pose of m2 in the frame of m1.
 /// \code
-///   obm::ScanMatcherConfig cfg;               // or ScanMatcherConfig::load(yaml)
-///   cfg.type = obm::MatcherKind::Icp;
+///   obm::ScanMatcherConfig cfg;               // or ScanMatcherConfig::load(yaml), e.g. the
+///   cfg.type = obm::MatcherKind::Icp;         // `matcher:` of config/presets/lidar.yaml
 ///   obm::mrpt_bridge::MrptScanMatcher matcher(cfg);
 ///   auto r = matcher.align(map1, map2);       // r.pose: CPose3DPDFGaussian of map2 in map1
 ///   if (r.match.ok()) use(r.pose.mean, r.pose.cov);
