@@ -164,7 +164,7 @@ int main(int argc, char** argv) {
     bench::Preset preset = bench::Preset::load(presetFile(preset_name), assignments);
     OBM_LOG_INFO("obm-bench", "preset " << preset.name << " (" << preset.file << ")"
                                         << (why.empty() ? "" : "; chosen from the pairs: " + why)
-                                        << ", model " << preset.matcher.obmnet.model_path);
+                                        << ", model " << preset.matcher.obmnet.network.model_path);
     if (request.protocol != bench::Protocol::Pairs) {
       request.data_config = preset.bench.data_config;
       request.surface_references = preset.bench.surface_error > 0.0;
@@ -182,8 +182,8 @@ int main(int argc, char** argv) {
     // samples two clouds share by independent ones, which the object models were not trained on.
     std::size_t largest = 0;
     for (const auto& p : pairs) largest = std::max({largest, p.source.size(), p.target.size()});
-    if (preset.matcher.obmnet.num_points == 0 && largest <= kMaxWholePoints)
-      preset.matcher.obmnet.num_points = static_cast<int>(largest);
+    if (preset.matcher.obmnet.network.num_points == 0 && largest <= kMaxWholePoints)
+      preset.matcher.obmnet.network.num_points = static_cast<int>(largest);
     bench::RunOptions run;
     run.seed = seed;
     run.coloured = !pairs.empty() && std::all_of(pairs.begin(), pairs.end(), [](const auto& p) {

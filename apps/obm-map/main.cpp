@@ -66,7 +66,7 @@ int main(int argc, char** argv) {
     if (!matcher.empty()) {
       const obm::registration::MatcherKind kind =
           obm::registration::parseMatcherKind(matcher, "--matcher");
-      if (obm::registration::usesNetwork(kind) && cfg.frontend.matcher.obmnet.model_path.empty())
+      if (obm::registration::usesNetwork(kind) && cfg.frontend.matcher.obmnet.network.model_path.empty())
         throw obm::ConfigError("--matcher " + matcher + ": the configuration '" + config +
                                "' has no matcher.obmnet section with a model_path");
       cfg.frontend.matcher.type = kind;

@@ -296,7 +296,7 @@ TEST(FrontendParams, MissingModelFallsBackOnlyWhenConfigured) {
                          "    model_path: models/none.pt\n";
   const FrontendParams p = FrontendParams::load(ConfigNode::loadFile(yaml));
   // The model path is resolved against the YAML file's folder.
-  EXPECT_EQ(std::filesystem::path(p.matcher.obmnet.model_path),
+  EXPECT_EQ(std::filesystem::path(p.matcher.obmnet.network.model_path),
             std::filesystem::path(dir) / "models/none.pt");
   const MatcherChoice c = chooseMatcher(p);
   EXPECT_TRUE(c.fell_back);

@@ -44,8 +44,8 @@ FrontendParams params(const std::string& model) {
   p.loop_closure.min_travel = 60.0;
   p.loop_closure.check_every = 1;
   p.matcher.type = registration::MatcherKind::ObmNetIcp;
-  p.matcher.obmnet.model_path = model;
-  p.matcher.obmnet.threads = 1;
+  p.matcher.obmnet.network.model_path = model;
+  p.matcher.obmnet.network.threads = 1;
   p.matcher.obmnet.pre_align = true;
   p.matcher.obmnet.keep_init_if_better = true;
   p.matcher_fallback = registration::MatcherKind::Icp;

@@ -63,8 +63,8 @@ TEST(FrontendObmNet, AWrongLoopOfTheNetworkMatcherIsSwitchedOffByTheRobustBackEn
   // The wrong candidate: a sweep of another place registered against sweep 0 by the network +
   // ICP matcher with the small LiDAR model, from the identity (as a loop candidate comes).
   registration::ObmNetMatcherParams net;
-  net.model_path = obm::test::modelsDir() + "obmnet_lidar_small.pt";
-  net.threads = 1;
+  net.network.model_path = obm::test::modelsDir() + "obmnet_lidar_small.pt";
+  net.network.threads = 1;
   net.pre_align = false;
   net.keep_init_if_better = false;
   const registration::ObmNetIcpMatcher matcher(net, icp, conf);

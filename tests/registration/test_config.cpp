@@ -179,8 +179,8 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
   EXPECT_EQ(c.type, registration::MatcherKind::ObmNetIcp);
   EXPECT_TRUE(c.obmnet.pre_align);
   // Resolved against the YAML file's folder.
-  EXPECT_EQ(c.obmnet.model_path.rfind(obm::test::sourceDir() + "/config/registration/", 0), 0u)
-      << c.obmnet.model_path;
+  EXPECT_EQ(c.obmnet.network.model_path.rfind(obm::test::sourceDir() + "/config/registration/", 0), 0u)
+      << c.obmnet.network.model_path;
   const auto s = registration::ScanMatcherConfig::load(ConfigNode::fromString(
       "type: obmnet\nobmnet: {model_path: /abs/m.pt, num_points: 512, threads: 1, seed: 7, "
       "pre_align: false, keep_init_if_better: false, overlap_stage_keep: 0.3, "
@@ -211,7 +211,7 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
   EXPECT_DOUBLE_EQ(s.obmnet.free_space.relative_margin, 0.2);
   EXPECT_DOUBLE_EQ(s.obmnet.free_space.min_range, 2.0);
   EXPECT_EQ(s.obmnet.free_space.sensor, registration::FreeSpaceSensor::Camera);
-  EXPECT_DOUBLE_EQ(s.obmnet.start_heading_margin, 1.25);
+  EXPECT_DOUBLE_EQ(s.obmnet.network.start_heading_margin, 1.25);
   // The shipped YAML: off, and the defaults its comments give.
   const registration::FreeSpaceParams f;
   EXPECT_DOUBLE_EQ(c.obmnet.choice_free_space_weight, 0.0);
@@ -221,7 +221,7 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
   EXPECT_DOUBLE_EQ(c.obmnet.free_space.relative_margin, f.relative_margin);
   EXPECT_DOUBLE_EQ(c.obmnet.free_space.min_range, f.min_range);
   EXPECT_EQ(c.obmnet.free_space.sensor, registration::FreeSpaceSensor::Lidar);
-  EXPECT_DOUBLE_EQ(c.obmnet.start_heading_margin, 1.0);
+  EXPECT_DOUBLE_EQ(c.obmnet.network.start_heading_margin, 1.0);
   EXPECT_EQ(c.obmnet.search_candidates, 0);  // the shipped YAML: no search
   EXPECT_EQ(c.obmnet.search.axis, "z");
   // ... and otherwise the search's defaults, as the YAML's comments say.
@@ -240,32 +240,32 @@ TEST(RegistrationConfig, ObmNetKeysAndRelativeModelPath) {
   EXPECT_DOUBLE_EQ(c.obmnet.search.min_separation_m, d.min_separation_m);
   EXPECT_DOUBLE_EQ(c.obmnet.search.color_tolerance, d.color_tolerance);
   EXPECT_EQ(c.obmnet.search.seed, d.seed);
-  EXPECT_FALSE(s.obmnet.select_by_consensus);
-  EXPECT_TRUE(c.obmnet.select_by_consensus);
-  EXPECT_EQ(s.obmnet.iterations, 4);
-  EXPECT_DOUBLE_EQ(s.obmnet.spatial_sigma, 0.05);
-  EXPECT_DOUBLE_EQ(c.obmnet.spatial_sigma, -1.0);  // the shipped YAML: the model's own
+  EXPECT_FALSE(s.obmnet.network.select_by_consensus);
+  EXPECT_TRUE(c.obmnet.network.select_by_consensus);
+  EXPECT_EQ(s.obmnet.network.iterations, 4);
+  EXPECT_DOUBLE_EQ(s.obmnet.network.spatial_sigma, 0.05);
+  EXPECT_DOUBLE_EQ(c.obmnet.network.spatial_sigma, -1.0);  // the shipped YAML: the model's own
   EXPECT_DOUBLE_EQ(s.obmnet.start_turn_deg, 25.0);
   EXPECT_EQ(s.obmnet.start_turn_axes, "zx");
   EXPECT_DOUBLE_EQ(c.obmnet.start_turn_deg, 0.0);  // the shipped YAML: one start
-  EXPECT_EQ(s.obmnet.ransac_iterations, 3000);
-  EXPECT_EQ(s.obmnet.ransac_candidates, 2);
-  EXPECT_DOUBLE_EQ(s.obmnet.ransac_inlier_spacing, 1.5);
-  EXPECT_DOUBLE_EQ(s.obmnet.ransac_max_turn_deg, 30.0);
-  EXPECT_EQ(c.obmnet.ransac_iterations, 0);  // the shipped YAML: the weighted SVD alone
+  EXPECT_EQ(s.obmnet.network.ransac_iterations, 3000);
+  EXPECT_EQ(s.obmnet.network.ransac_candidates, 2);
+  EXPECT_DOUBLE_EQ(s.obmnet.network.ransac_inlier_spacing, 1.5);
+  EXPECT_DOUBLE_EQ(s.obmnet.network.ransac_max_turn_deg, 30.0);
+  EXPECT_EQ(c.obmnet.network.ransac_iterations, 0);  // the shipped YAML: the weighted SVD alone
   EXPECT_DOUBLE_EQ(s.obmnet.init_headings_gate, 5.0);
   EXPECT_DOUBLE_EQ(s.obmnet.init_headings_margin, 1.2);
   EXPECT_EQ(s.obmnet.refine_hypotheses, 0);
   EXPECT_EQ(s.obmnet.init_headings, 8);
   EXPECT_EQ(c.obmnet.refine_hypotheses, 1);  // the fittest hypothesis only, no blind headings
   EXPECT_EQ(c.obmnet.init_headings, 0);
-  EXPECT_EQ(s.obmnet.model_path, "/abs/m.pt");
+  EXPECT_EQ(s.obmnet.network.model_path, "/abs/m.pt");
   EXPECT_DOUBLE_EQ(s.obmnet.overlap_stage_keep, 0.3);
   EXPECT_DOUBLE_EQ(s.obmnet.overlap_stage_gate_factor, 3.0);
   EXPECT_DOUBLE_EQ(c.obmnet.overlap_stage_keep, 0.0);  // off unless asked for
-  EXPECT_EQ(s.obmnet.num_points, 512);
-  EXPECT_EQ(s.obmnet.threads, 1);
-  EXPECT_EQ(s.obmnet.seed, 7u);
+  EXPECT_EQ(s.obmnet.network.num_points, 512);
+  EXPECT_EQ(s.obmnet.network.threads, 1);
+  EXPECT_EQ(s.obmnet.network.seed, 7u);
   EXPECT_FALSE(s.obmnet.pre_align);
   EXPECT_FALSE(s.obmnet.keep_init_if_better);
 }
@@ -317,7 +317,7 @@ TEST(RegistrationConfig, EveryShippedPresetLoadsAndNamesAShippedModel) {
     const registration::ScanMatcherConfig c =
         registration::ScanMatcherConfig::load(ConfigNode::loadFile(file).child("matcher"));
     EXPECT_EQ(c.type, registration::MatcherKind::ObmNetIcp);
-    EXPECT_NE(c.obmnet.model_path.find("/share/obmslam/models/obmnet_"), std::string::npos);
+    EXPECT_NE(c.obmnet.network.model_path.find("/share/obmslam/models/obmnet_"), std::string::npos);
     EXPECT_GT(c.obmnet.search_candidates, 0);
   }
 }
@@ -338,8 +338,8 @@ icp: {kernel_scale: 0.2}
                                            dir + "/map_test.yaml");
   const auto c = registration::ScanMatcherConfig::load(node);
   EXPECT_EQ(c.type, plain.type);
-  EXPECT_EQ(std::filesystem::path(c.obmnet.model_path).lexically_normal(),
-            std::filesystem::path(plain.obmnet.model_path).lexically_normal());
+  EXPECT_EQ(std::filesystem::path(c.obmnet.network.model_path).lexically_normal(),
+            std::filesystem::path(plain.obmnet.network.model_path).lexically_normal());
   EXPECT_TRUE(c.obmnet.pre_align);
   EXPECT_FALSE(plain.obmnet.pre_align);
   EXPECT_EQ(c.obmnet.search.cell, 2.0);
@@ -370,7 +370,7 @@ TEST(RegistrationConfig, ObmNetTypesNeedLibTorch) {
   // This build has no LibTorch: the OBMNet matchers say so instead of failing later.
   registration::ScanMatcherConfig c;
   c.type = registration::MatcherKind::ObmNetIcp;
-  c.obmnet.model_path = "any.pt";
+  c.obmnet.network.model_path = "any.pt";
   EXPECT_THROW(registration::makeScanMatcher(c), ConfigError);
   EXPECT_THROW(registration::ObmNetMatcher(c.obmnet), ConfigError);
 }

@@ -40,10 +40,10 @@ class KittiObmNet : public ::testing::Test {
         registration::ScanMatcherConfig::load(ConfigNode(m, file, "matcher"));
     ASSERT_EQ(cfg.type, registration::MatcherKind::ObmNetIcp);
     const std::string model = obm::test::modelsDir() +
-                              std::filesystem::path(cfg.obmnet.model_path).filename().string();
+                              std::filesystem::path(cfg.obmnet.network.model_path).filename().string();
     ASSERT_TRUE(std::filesystem::exists(model))
         << model << ": the LiDAR model is part of the project (obm-train, see its model card)";
-    cfg.obmnet.model_path = model;
+    cfg.obmnet.network.model_path = model;
     matcher = registration::makeScanMatcher(cfg);
     cfg.type = registration::MatcherKind::ObmNet;
     network = registration::makeScanMatcher(cfg);

@@ -71,8 +71,8 @@ double rte(const Isometry3d& T, const Isometry3d& gt) {
 
 registration::ObmNetMatcherParams netParams(const std::string& model) {
   registration::ObmNetMatcherParams p;
-  p.model_path = model;
-  p.threads = 1;
+  p.network.model_path = model;
+  p.network.threads = 1;
   p.pre_align = false;
   p.keep_init_if_better = false;
   return p;
@@ -482,7 +482,7 @@ TEST(ModelAccuracy, SmallLidarModelWithRansacOnRealKittiSweepsTenApart) {
   const registration::IcpMatcher chain_icp(icp, conf);
   const std::string model = kModels + "obmnet_lidar_small.pt";
   registration::ObmNetMatcherParams with = netParams(model);
-  with.ransac_iterations = 5000;
+  with.network.ransac_iterations = 5000;
   const registration::ObmNetMatcher svd_alone(netParams(model), icp, conf);
   const registration::ObmNetMatcher ransac_alone(with, icp, conf);
   const registration::ObmNetIcpMatcher svd_icp(netParams(model), icp, conf);
@@ -553,12 +553,12 @@ TEST(ModelAccuracy, SmallLidarModelKeepsTheStartsHeadingAndTheStartWithoutConsen
   }
   const PointCloud source = sweep(12), target = sweep(2);
   registration::ObmNetMatcherParams plain = netParams(kModels + "obmnet_lidar_small.pt");
-  plain.ransac_iterations = 5000;
-  plain.yaw_hypotheses = 4;
+  plain.network.ransac_iterations = 5000;
+  plain.network.yaw_hypotheses = 4;
   registration::ObmNetMatcherParams prohibitive = plain;
-  prohibitive.start_heading_margin = 1000.0;
+  prohibitive.network.start_heading_margin = 1000.0;
   registration::ObmNetMatcherParams floor = plain;
-  floor.min_consensus = 0.06;
+  floor.network.min_consensus = 0.06;
   const registration::ObmNetMatcher plain_net(plain, icp, conf);
   const registration::ObmNetMatcher margin_net(prohibitive, icp, conf);
   const registration::ObmNetMatcher floor_net(floor, icp, conf);
@@ -608,11 +608,11 @@ TEST(ModelAccuracy, SmallLidarModelHeadingByConsensusOnSimulatedRevisits) {
   const registration::ConfidenceParams conf = lidarConfidence();
   const std::string model = kModels + "obmnet_lidar_small.pt";
   registration::ObmNetMatcherParams by_fitness = netParams(model);
-  by_fitness.ransac_iterations = 5000;
-  by_fitness.yaw_hypotheses = 4;
-  by_fitness.select_by_consensus = false;
+  by_fitness.network.ransac_iterations = 5000;
+  by_fitness.network.yaw_hypotheses = 4;
+  by_fitness.network.select_by_consensus = false;
   registration::ObmNetMatcherParams by_consensus = by_fitness;
-  by_consensus.select_by_consensus = true;
+  by_consensus.network.select_by_consensus = true;
   const registration::ObmNetMatcher fit_net(by_fitness, icp, conf);
   const registration::ObmNetMatcher cons_net(by_consensus, icp, conf);
   // (source, target): sweeps 20 apart on one street, and two revisits from another heading.
@@ -651,8 +651,8 @@ TEST(ModelAccuracy, SmallLidarModelHeadingByFreeSpaceOnSimulatedSweepsTwentyApar
   const test::SeedFiveDrive drive;
   const sim::Trajectory& traj = drive.traj();
   registration::ObmNetMatcherParams by_consensus = netParams(kModels + "obmnet_lidar_small.pt");
-  by_consensus.ransac_iterations = 5000;
-  by_consensus.yaw_hypotheses = 4;
+  by_consensus.network.ransac_iterations = 5000;
+  by_consensus.network.yaw_hypotheses = 4;
   registration::ObmNetMatcherParams by_free_space = by_consensus;
   by_free_space.hypothesis_free_space_weight = 8.0;
   const registration::ObmNetMatcher cons_net(by_consensus, lidarIcp(), lidarConfidence());

@@ -55,8 +55,8 @@ class ObmNetMatchers : public ::testing::Test {
   }
   static registration::ObmNetMatcherParams params(const std::string& file = "small.pt") {
     registration::ObmNetMatcherParams p;
-    p.model_path = dir() + "/" + file;
-    p.threads = 1;
+    p.network.model_path = dir() + "/" + file;
+    p.network.threads = 1;
     return p;
   }
 };

@@ -433,8 +433,8 @@ class Registry {
   /// (`by_consensus`, the +consensus rows) or by their fitness (the +ransac rows).
   reg::ObmNetMatcherParams ransacParams(bool by_consensus) const {
     reg::ObmNetMatcherParams p = base_;
-    p.ransac_iterations = preset_.bench.ransac_iterations;
-    p.select_by_consensus = by_consensus;
+    p.network.ransac_iterations = preset_.bench.ransac_iterations;
+    p.network.select_by_consensus = by_consensus;
     return p;
   }
   /// Every yaw hypothesis refined, and ICP from `headings` blind headings too.
@@ -471,9 +471,9 @@ class Registry {
   /// The module as a plug-in: the model and its sampling only.
   reg::ObmNetMatcherParams moduleParams() const {
     reg::ObmNetMatcherParams p;
-    p.model_path = base_.model_path;
-    p.num_points = base_.num_points;
-    p.threads = base_.threads;
+    p.network.model_path = base_.network.model_path;
+    p.network.num_points = base_.network.num_points;
+    p.network.threads = base_.network.threads;
     p.pre_align = false;
     return p;
   }
@@ -528,7 +528,7 @@ std::vector<Method> ablationMethods(const Preset& preset, const std::vector<std:
   std::vector<Method> out;
   for (const auto& model : models) {
     reg::ObmNetMatcherParams p = preset.matcher.obmnet;
-    p.model_path = model;
+    p.network.model_path = model;
     out.push_back(registrarMethod(model, p, false, nullptr));
   }
   return out;

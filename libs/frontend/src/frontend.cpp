@@ -57,7 +57,7 @@ MatcherChoice chooseMatcher(const FrontendParams& params) {
     c.message = "matcher: " + type;
     return c;
   }
-  const std::string& model = c.config.obmnet.model_path;
+  const std::string& model = c.config.obmnet.network.model_path;
   const bool available = registration::obmNetAvailable();
   if (available && std::filesystem::is_regular_file(model)) {
     c.message = "matcher: " + type + " (model " + model + ")";

@@ -37,11 +37,11 @@ ObmNetRegistrar::ObmNetRegistrar(const Options& options) : impl_(std::make_uniqu
   if (options.spatial_sigma < 0.0 && options.spatial_sigma != -1.0)
     throw ContractError("ObmNetRegistrar: spatial_sigma must be >= 0, or -1 for the model's");
   if (options.spatial_sigma >= 0.0) impl_->model->setSpatialPrior(options.spatial_sigma);
-  if (options.ransac_iterations < 0 || options.match_candidates < 1 ||
-      options.match_candidates > kMatchCandidates || !(options.ransac_inlier_spacing > 0.0) ||
+  if (options.ransac_iterations < 0 || options.ransac_candidates < 1 ||
+      options.ransac_candidates > kMatchCandidates || !(options.ransac_inlier_spacing > 0.0) ||
       !(options.ransac_max_turn_deg > 0.0 && options.ransac_max_turn_deg <= 180.0))
     throw ContractError(
-        "ObmNetRegistrar: ransac_iterations must be >= 0, match_candidates in [1, " +
+        "ObmNetRegistrar: ransac_iterations must be >= 0, ransac_candidates in [1, " +
         std::to_string(kMatchCandidates) +
         "], ransac_inlier_spacing > 0 and ransac_max_turn_deg in (0, 180]");
   if (!(options.min_consensus >= 0.0 && options.min_consensus <= 1.0))
@@ -208,7 +208,7 @@ RegistrationResult ObmNetRegistrar::align(const PointCloud& source,
       const auto* pp = prob.data_ptr<double>();
       const auto C = static_cast<std::size_t>(idx.size(1));
       const std::size_t use = std::min<std::size_t>(
-          C, static_cast<std::size_t>(std::max(1, impl_->opt.match_candidates)));
+          C, static_cast<std::size_t>(std::max(1, impl_->opt.ransac_candidates)));
       std::vector<Eigen::Vector3d> ps, qs;
       std::vector<double> ws;
       RansacPoseParams rp;

@@ -43,43 +43,43 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
                   "choice_free_space_weight",
                   "hypothesis_free_space_weight",
                   "free_space"});
-  p.model_path = node.required<std::string>("model_path");
-  node.get("num_points", p.num_points);
-  node.get("threads", p.threads);
-  node.get("seed", p.seed);
-  node.get("denoise_neighbors", p.denoise_neighbors);
-  node.get("soft_sampling", p.soft_sampling);
+  p.network.model_path = node.required<std::string>("model_path");
+  node.get("num_points", p.network.num_points);
+  node.get("threads", p.network.threads);
+  node.get("seed", p.network.seed);
+  node.get("denoise_neighbors", p.network.denoise_neighbors);
+  node.get("soft_sampling", p.network.soft_sampling);
   node.get("pre_align", p.pre_align);
   node.get("keep_init_if_better", p.keep_init_if_better);
   node.get("overlap_stage_keep", p.overlap_stage_keep);
   node.get("overlap_stage_gate_factor", p.overlap_stage_gate_factor);
-  node.get("yaw_hypotheses", p.yaw_hypotheses);
-  if (p.yaw_hypotheses < 0) throw ConfigError(node.where("yaw_hypotheses") + ": must be >= 0");
-  node.get("iterations", p.iterations);
-  if (p.iterations < 0)
+  node.get("yaw_hypotheses", p.network.yaw_hypotheses);
+  if (p.network.yaw_hypotheses < 0) throw ConfigError(node.where("yaw_hypotheses") + ": must be >= 0");
+  node.get("iterations", p.network.iterations);
+  if (p.network.iterations < 0)
     throw ConfigError(node.where("iterations") + ": must be >= 0 (0 = the model's)");
-  node.get("spatial_sigma", p.spatial_sigma);
-  if (!(p.spatial_sigma >= 0.0 || p.spatial_sigma == -1.0))
+  node.get("spatial_sigma", p.network.spatial_sigma);
+  if (!(p.network.spatial_sigma >= 0.0 || p.network.spatial_sigma == -1.0))
     throw ConfigError(node.where("spatial_sigma") + ": must be >= 0, or -1 for the model's");
-  node.get("ransac_iterations", p.ransac_iterations);
-  if (p.ransac_iterations < 0)
+  node.get("ransac_iterations", p.network.ransac_iterations);
+  if (p.network.ransac_iterations < 0)
     throw ConfigError(node.where("ransac_iterations") + ": must be >= 0 (0 = off)");
-  node.get("ransac_candidates", p.ransac_candidates);
-  if (p.ransac_candidates < 1 || p.ransac_candidates > 4)
+  node.get("ransac_candidates", p.network.ransac_candidates);
+  if (p.network.ransac_candidates < 1 || p.network.ransac_candidates > 4)
     throw ConfigError(node.where("ransac_candidates") + ": must be in [1, 4]");
-  node.get("ransac_inlier_spacing", p.ransac_inlier_spacing);
-  if (!(p.ransac_inlier_spacing > 0.0))
+  node.get("ransac_inlier_spacing", p.network.ransac_inlier_spacing);
+  if (!(p.network.ransac_inlier_spacing > 0.0))
     throw ConfigError(node.where("ransac_inlier_spacing") + ": must be > 0");
-  node.get("start_heading_margin", p.start_heading_margin);
-  if (!(p.start_heading_margin >= 1.0))
+  node.get("start_heading_margin", p.network.start_heading_margin);
+  if (!(p.network.start_heading_margin >= 1.0))
     throw ConfigError(node.where("start_heading_margin") + ": must be >= 1 (1 = no preference)");
-  node.get("min_consensus", p.min_consensus);
-  if (!(p.min_consensus >= 0.0 && p.min_consensus <= 1.0))
+  node.get("min_consensus", p.network.min_consensus);
+  if (!(p.network.min_consensus >= 0.0 && p.network.min_consensus <= 1.0))
     throw ConfigError(node.where("min_consensus") + ": must be in [0, 1] (0 = off)");
-  node.get("ransac_max_turn_deg", p.ransac_max_turn_deg);
-  if (!(p.ransac_max_turn_deg > 0.0 && p.ransac_max_turn_deg <= 180.0))
+  node.get("ransac_max_turn_deg", p.network.ransac_max_turn_deg);
+  if (!(p.network.ransac_max_turn_deg > 0.0 && p.network.ransac_max_turn_deg <= 180.0))
     throw ConfigError(node.where("ransac_max_turn_deg") + ": must be in (0, 180]");
-  node.get("select_by_consensus", p.select_by_consensus);
+  node.get("select_by_consensus", p.network.select_by_consensus);
   node.get("refine_hypotheses", p.refine_hypotheses);
   if (p.refine_hypotheses < 0)
     throw ConfigError(node.where("refine_hypotheses") + ": must be >= 0 (0 = all)");
@@ -119,17 +119,17 @@ ObmNetMatcherParams ObmNetMatcherParams::load(const ConfigNode& node) {
     throw ConfigError(node.where("overlap_stage_keep") + ": must be in [0, 1]");
   if (!(p.overlap_stage_gate_factor >= 1.0))
     throw ConfigError(node.where("overlap_stage_gate_factor") + ": must be >= 1");
-  if (p.model_path.empty()) throw ConfigError(node.where("model_path") + ": must not be empty");
-  if (p.num_points < 0) throw ConfigError(node.where("num_points") + ": must be >= 0");
-  if (p.threads < 1) throw ConfigError(node.where("threads") + ": must be >= 1");
-  if (p.soft_sampling < -1 || p.soft_sampling > 1)
+  if (p.network.model_path.empty()) throw ConfigError(node.where("model_path") + ": must not be empty");
+  if (p.network.num_points < 0) throw ConfigError(node.where("num_points") + ": must be >= 0");
+  if (p.network.threads < 1) throw ConfigError(node.where("threads") + ": must be >= 1");
+  if (p.network.soft_sampling < -1 || p.network.soft_sampling > 1)
     throw ConfigError(node.where("soft_sampling") + ": must be -1 (the model's), 0 or 1");
-  if (p.denoise_neighbors < 0)
+  if (p.network.denoise_neighbors < 0)
     throw ConfigError(node.where("denoise_neighbors") + ": must be >= 0");
   // A relative model path is relative to the YAML file that names it.
-  const std::filesystem::path model(p.model_path);
+  const std::filesystem::path model(p.network.model_path);
   if (model.is_relative() && !node.file().empty() && std::filesystem::exists(node.file()))
-    p.model_path = (std::filesystem::path(node.file()).parent_path() / model).string();
+    p.network.model_path = (std::filesystem::path(node.file()).parent_path() / model).string();
   return p;
 }
 

@@ -24,26 +24,11 @@ namespace obm::registration {
 #ifdef OBM_REGISTRATION_HAS_OBMNET
 
 obmnet::ObmNetRegistrar::Options registrarOptions(const ObmNetMatcherParams& p, bool network_alone) {
-  if (p.model_path.empty()) throw ConfigError("obmnet matcher: model_path is empty");
-  if (p.num_points < 0) throw ConfigError("obmnet matcher: num_points must be >= 0");
-  if (p.threads < 1) throw ConfigError("obmnet matcher: threads must be >= 1");
-  obmnet::ObmNetRegistrar::Options o;
-  o.model_path = p.model_path;
-  o.num_points = p.num_points;
-  o.threads = p.threads;
-  o.seed = p.seed;
-  o.denoise_neighbors = p.denoise_neighbors;
-  o.soft_sampling = p.soft_sampling;
-  o.yaw_hypotheses = p.yaw_hypotheses;
-  o.iterations = p.iterations;
-  o.spatial_sigma = p.spatial_sigma;
-  o.ransac_iterations = p.ransac_iterations;
-  o.match_candidates = p.ransac_candidates;
-  o.ransac_inlier_spacing = p.ransac_inlier_spacing;
-  o.ransac_max_turn_deg = p.ransac_max_turn_deg;
-  o.select_by_consensus = p.select_by_consensus;
-  o.start_heading_margin = p.start_heading_margin;
-  o.min_consensus = network_alone ? p.min_consensus : 0.0;
+  obmnet::ObmNetRegistrar::Options o = p.network;
+  if (o.model_path.empty()) throw ConfigError("obmnet matcher: model_path is empty");
+  if (o.num_points < 0) throw ConfigError("obmnet matcher: num_points must be >= 0");
+  if (o.threads < 1) throw ConfigError("obmnet matcher: threads must be >= 1");
+  if (!network_alone) o.min_consensus = 0.0;
   return o;
 }
 

@@ -107,7 +107,7 @@ class ObmNetRegistrar {
     int ransac_iterations = 0;
     /// Target candidates per source point given to RANSAC, most probable first (1 … 4); a source
     /// point counts once in the consensus however many of its candidates agree.
-    int match_candidates = 4;
+    int ransac_candidates = 4;
     /// RANSAC's inlier distance in target point spacings (the median distance of a target point
     /// to its nearest neighbour): true pairs of two independent samplings lie about one spacing
     /// apart.

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "obm/obmnet/registrar.hpp"
 #include "obm/registration/correlative_search.hpp"
 #include "obm/registration/free_space.hpp"
 #include "obm/registration/scan_matcher.hpp"
@@ -20,17 +21,18 @@ class ConfigNode;
 
 namespace obm::registration {
 
-/// Settings of the network stage.
+/// Settings of the OBMNet matchers: the network pass (the registrar's own options, `network`) and
+/// what the matchers do around it (the starts, the ICP refinements and the choice among them).
+/// One YAML map holds both (config/registration/obmnet_icp.yaml lists every key).
 struct ObmNetMatcherParams {
-  std::string model_path;  ///< model file written by obm-train (required)
-  int num_points = 0;      ///< points sampled per cloud; 0 = what the model was trained with
-  int threads = 2;         ///< LibTorch intra-op threads
-  std::uint64_t seed = 0;  ///< seeds the network's point sampling
-  /// Neighbour-mean denoising of the network's inputs (0 = off; ObmNetRegistrar::Options).
-  int denoise_neighbors = 0;
-  /// Overlap sampling at inference: −1 = as the model file says, 0 = one-hot draws, 1 = the
-  /// relaxed draws of training (ObmNetRegistrar::Options::soft_sampling).
-  int soft_sampling = -1;
+  /// The network pass: model_path (required), num_points (0 = as trained), threads, seed,
+  /// denoise_neighbors, soft_sampling, yaw_hypotheses, iterations, spatial_sigma and RANSAC on
+  /// its matches (ransac_iterations, ransac_candidates, ransac_inlier_spacing,
+  /// ransac_max_turn_deg, select_by_consensus), start_heading_margin and min_consensus — each
+  /// documented in obm/obmnet/registrar.hpp. `min_consensus` applies to ObmNetMatcher (the
+  /// network alone) only: the refining matchers let ICP and the confidence judge every
+  /// hypothesis. keep_start_if_fitter and the teacher are not matcher settings (not read).
+  obmnet::ObmNetRegistrar::Options network;
   /// Transform the source by the initial guess before the network and compose the network's
   /// (small) correction with it: T = ΔT · T_init. The natural choice for odometry, where the
   /// constant-velocity guess is good; false = the network sees the raw clouds and T_init is
@@ -48,31 +50,6 @@ struct ObmNetMatcherParams {
   /// keeps the one pairing more points (partial_noise: 54.0 → 62.0 % recall, docs/registration.md).
   double overlap_stage_keep = 0.0;
   double overlap_stage_gate_factor = 2.0;  ///< start gate of the overlap stage / fine gate
-  /// Yaw hypotheses of the network stage (ObmNetRegistrar::Options::yaw_hypotheses): 0 = the
-  /// model's default (4 for a planar LiDAR model, else 1), 1 = off.
-  int yaw_hypotheses = 0;
-  /// Registration iterations of the network pass (ObmNetRegistrar::Options::iterations): 0 = the
-  /// model's n_iters.
-  int iterations = 0;
-  /// σ of the network's spatial prior on its matching map (ObmNetRegistrar::Options::
-  /// spatial_sigma) [normalised units]: −1 = the model's, 0 = off.
-  double spatial_sigma = -1.0;
-  /// RANSAC samples on the network's correspondences (ObmNetRegistrar::Options::ransac_iterations;
-  /// 0 = off, the weighted SVD alone).
-  int ransac_iterations = 0;
-  int ransac_candidates = 4;           ///< target candidates per source point (1 … 4)
-  double ransac_inlier_spacing = 1.0;  ///< RANSAC's inlier distance [target point spacings]
-  double ransac_max_turn_deg = 45.0;   ///< planar: RANSAC poses within this of their hypothesis
-  /// With ransac_iterations: the yaw hypotheses ranked by their RANSAC consensus (true) or by
-  /// their fitness (ObmNetRegistrar::Options::select_by_consensus).
-  bool select_by_consensus = true;
-  /// Several yaw hypotheses: the start's heading is kept unless another scores more than this
-  /// factor times it (ObmNetRegistrar::Options::start_heading_margin; 1 = no preference).
-  double start_heading_margin = 1.0;
-  /// With select_by_consensus: below this consensus share the network keeps the start
-  /// (ObmNetRegistrar::Options::min_consensus; 0 = off). ObmNetMatcher only (the network
-  /// alone): the refining matchers let ICP and the confidence judge every hypothesis.
-  double min_consensus = 0.0;
   /// ObmNetIcpMatcher: how many of the network's yaw hypotheses ICP refines, best first by the
   /// network's own ranking (its fitness, or its consensus with select_by_consensus; 1 = only the
   /// first; 0 = all). The refinement with the most inliers
