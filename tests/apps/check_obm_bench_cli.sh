@@ -35,9 +35,10 @@ for m in obmnet obmnet+icp icp; do
   echo "$block" > "$work/$m.json"
   for k in mae_r mae_t mie_r mie_t recall median_ms; do num "$k" "$work/$m.json" >/dev/null; done
 done
-# Both clouds carry the same 1024 samples, which the network sees whole (not cut to the default
-# model's 768 points each on its own): alone it is within 0.01° here (4.3° when sub-sampled).
-lt "$(num mie_r "$work/obmnet.json")" 0.1 || fail "obmnet: MIE(R) $(num mie_r "$work/obmnet.json") on shared-sample pairs"
+# Both clouds carry the same 1024 samples, which the network sees whole (not cut to the model's
+# 768 points each on its own): the objects_resampled preset's model alone is at 0.65° here, 1.20°
+# when each cloud is sub-sampled (--set matcher.obmnet.num_points=768).
+lt "$(num mie_r "$work/obmnet.json")" 0.9 || fail "obmnet: MIE(R) $(num mie_r "$work/obmnet.json") on shared-sample pairs"
 # Identical samples moved by ≤ 14°: ICP, alone or after the network, registers both pairs.
 for m in obmnet+icp icp; do
   lt "$(num mie_r "$work/$m.json")" 0.05 || fail "$m: MIE(R) $(num mie_r "$work/$m.json") on easy pairs"
@@ -65,8 +66,9 @@ expect_on_request "obmnet+icp|icp" 0.05 "easy pairs"
 # The refinement started at the ground truth (`icp@truth`, a diagnostic): on these exact pairs
 # it stays at the truth.
 expect_on_request "icp@truth" 0.05 "exact pairs"
-# The network alone started at the truth (`obmnet@truth`): on shared samples it stays.
-expect_on_request "obmnet@truth" 0.1 "exact pairs started at the truth"
+# The network alone started at the truth (`obmnet@truth`): on shared samples it stays near it
+# (0.65°, the preset's model's floor on these pairs, as from the pairs' own start).
+expect_on_request "obmnet@truth" 0.9 "exact pairs started at the truth"
 # Not moving (`identity`, on request) scores the pairs' own motion: far from zero here (the
 # sources are moved by up to 14°), and not in the default list. A negative spatial prior is
 # refused naming the key.
