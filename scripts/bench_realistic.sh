@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Registration on realistic pairs (docs/benchmarks.md, "Realistic pairs"): every method in one
-# obm-bench run per pair set, the network alone, with ICP, ICP alone and the Open3D peers, and the
+# Registration on realistic pairs (docs/benchmarks.md, "Realistic pairs"): every row of the pair
+# kind's preset (config/presets: objects_resampled, lidar) in one obm-bench run per pair set, the
 # confidence scores rated by AUROC.
 #   objects  `resampled` (independent samplings, 768-point crops, σ 0.005) on the unseen group,
 #            then the paper's `partial` protocol (shared samples) as a reported row
@@ -8,8 +8,9 @@
 #            seed 5 (a city no training run uses), recall RRE < 1° and RTE < 0.3 m
 #
 #   scripts/bench_realistic.sh [OUT_DIR=out/bench_realistic] [SETS="objects lidar"]
-# Environment: BUILD (build), PAIRS (200), THREADS (2), OBJECT_MODEL, LIDAR_MODEL, LIDAR_DATA
-# (runs/bench_lidar: where the seed-5 drive is simulated once).
+# Environment: BUILD (build), PAIRS (200), THREADS (2), OBJECT_MODEL, LIDAR_MODEL (another model
+# than the preset's), METHODS (other rows than the preset's, comma-separated), LIDAR_DATA
+# (out/bench_lidar: where the seed-5 drive is simulated once).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 out=${1:-out/bench_realistic}
@@ -18,16 +19,20 @@ build=${BUILD:-build}
 bin=$build/bin/obm-bench
 pairs=${PAIRS:-200}
 threads=${THREADS:-2}
-object_model=${OBJECT_MODEL:-$root/share/obmslam/models/obmnet_objects_resampled.pt}
-lidar_model=${LIDAR_MODEL:-$root/share/obmslam/models/obmnet_lidar_pairs.pt}
-lidar_data=${LIDAR_DATA:-runs/bench_lidar}
+object_model=()
+[[ -n "${OBJECT_MODEL:-}" ]] && object_model=(--model "$OBJECT_MODEL")
+lidar_model=()
+[[ -n "${LIDAR_MODEL:-}" ]] && lidar_model=(--model "$LIDAR_MODEL")
+lidar_data=${LIDAR_DATA:-out/bench_lidar}
+methods=()
+[[ -n "${METHODS:-}" ]] && methods=(--methods "$METHODS")
 mkdir -p "$out"
 for set in $sets; do
   case "$set" in
     objects)
       for protocol in resampled partial; do
         echo "[bench-realistic] objects $protocol"
-        "$bin" --model "$object_model" --protocol "$protocol" --group unseen -n "$pairs" --seed 1 -q \
+        "$bin" "${object_model[@]}" "${methods[@]}" --protocol "$protocol" --group unseen -n "$pairs" --seed 1 -q \
           --threads "$threads" --json "$out/objects_$protocol.json" \
           --markdown "$out/objects_$protocol.md" --per-pair "$out/objects_$protocol.csv"
       done ;;
@@ -40,10 +45,9 @@ for set in $sets; do
       for cls in k1 k5 k10 k20 loop; do
         echo "[bench-realistic] lidar $cls"
         # the lidar preset (config/presets/lidar.yaml): data train_lidar_pairs.yaml, recall 1° / 0.3 m
-        "$bin" --model "$lidar_model" \
+        "$bin" "${lidar_model[@]}" "${methods[@]}" \
           --protocol kitti --sequence "$seq" --pair-class "$cls" -n "$pairs" --seed 1 -q \
           --threads "$threads" \
-          --methods "obmnet,obmnet+icp,icp,o3d_icp,o3d_fgr,o3d_ransac,o3d_fgr+icp" \
           --json "$out/lidar_$cls.json" --markdown "$out/lidar_$cls.md" \
           --per-pair "$out/lidar_$cls.csv"
       done ;;
