@@ -38,13 +38,6 @@ std::vector<std::string> splitList(const std::string& s) {
   return out;
 }
 
-/// `key="value"` for --set, with the value as a quoted YAML string (paths).
-std::string assignString(const std::string& key, const std::string& value) {
-  std::string quoted;
-  for (const char c : value) quoted += (c == '"' || c == '\\') ? std::string("\\") + c : std::string(1, c);
-  return key + "=\"" + quoted + "\"";
-}
-
 /// A preset named on the command line: a file, or a name in config/presets.
 std::string presetFile(const std::string& name_or_file) {
   if (std::filesystem::exists(name_or_file)) return name_or_file;
@@ -149,19 +142,18 @@ int main(int argc, char** argv) {
     } else if (preset_name.empty()) {
       preset_name = bench::presetName(request.protocol);
     }
-    std::vector<std::string> assignments;
+    std::vector<std::pair<std::string, std::string>> paths;
     if (!model.empty())
-      assignments.push_back(assignString("matcher.obmnet.model_path",
-                                         std::filesystem::absolute(model).string()));
+      paths.push_back({"matcher.obmnet.model_path", std::filesystem::absolute(model).string()});
     if (!data_config.empty())
-      assignments.push_back(assignString("benchmark.data_config",
-                                         std::filesystem::absolute(data_config).string()));
+      paths.push_back({"benchmark.data_config", std::filesystem::absolute(data_config).string()});
+    std::vector<std::string> assignments;
     assignments.push_back("matcher.obmnet.threads=" + std::to_string(threads));
     if (recall_deg > 0.0) assignments.push_back("benchmark.recall_deg=" + std::to_string(recall_deg));
     if (recall_trans > 0.0)
       assignments.push_back("benchmark.recall_trans=" + std::to_string(recall_trans));
     assignments.insert(assignments.end(), sets.begin(), sets.end());
-    bench::Preset preset = bench::Preset::load(presetFile(preset_name), assignments);
+    bench::Preset preset = bench::Preset::load(presetFile(preset_name), assignments, paths);
     OBM_LOG_INFO("obm-bench", "preset " << preset.name << " (" << preset.file << ")"
                                         << (why.empty() ? "" : "; chosen from the pairs: " + why)
                                         << ", model " << preset.matcher.obmnet.network.model_path);

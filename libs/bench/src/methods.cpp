@@ -67,23 +67,16 @@ constexpr RowName kRows[] = {
     {Row::O3dFgrObmIcp, "o3d_fgr+obm_icp"},
 };
 
-/// The Open3D peers' names (all of them, coloured ones included), whether or not this build has
-/// Open3D: a row named after one is recognised and then reported unavailable.
-std::vector<std::string> open3dNames() {
-  return {"o3d_icp", "o3d_fgr", "o3d_fgr+icp", "o3d_fgr+icp_p2p", "o3d_ransac", "o3d_cicp",
-          "o3d_fgr+cicp"};
-}
-
 }  // namespace
 
 RowRequest parseRow(const std::string& name, const std::string& where) {
   for (const auto& r : kRows)
     if (name == r.name) return {r.row, name};
-  for (const auto& o : open3dNames())
+  for (const auto& o : open3dMethodNames())
     if (name == o) return {Row::Open3d, name};
   std::string names;
   for (const auto& r : kRows) names += (names.empty() ? "" : ", ") + std::string(r.name);
-  for (const auto& o : open3dNames()) names += ", " + o;
+  for (const auto& o : open3dMethodNames()) names += ", " + o;
   throw ConfigError(where + ": unknown method '" + name + "' (" + names + ")");
 }
 

@@ -19,6 +19,11 @@
 
 namespace obm::bench {
 
+std::vector<std::string> open3dMethodNames() {
+  return {"o3d_icp", "o3d_fgr", "o3d_fgr+icp", "o3d_fgr+icp_p2p", "o3d_ransac", "o3d_cicp",
+          "o3d_fgr+cicp"};
+}
+
 #ifdef OBM_HAVE_OPEN3D
 namespace reg = open3d::pipelines::registration;
 

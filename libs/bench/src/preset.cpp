@@ -90,8 +90,10 @@ BenchParams BenchParams::load(const ConfigNode& node) {
   return b;
 }
 
-Preset Preset::load(const std::string& file, const std::vector<std::string>& assignments) {
+Preset Preset::load(const std::string& file, const std::vector<std::string>& assignments,
+                    const std::vector<std::pair<std::string, std::string>>& texts) {
   ConfigNode root = ConfigNode::loadFile(file);
+  for (const auto& [path, text] : texts) setValue(root, path, YAML::Node(text));
   applyOverrides(root, assignments);
   root.checkKeys({"matcher", "benchmark"});
   Preset p;

@@ -51,6 +51,10 @@ struct Open3dParams {
 /// Whether this build has the Open3D peers.
 bool haveOpen3d();
 
+/// The names of every Open3D peer (the coloured ones included), built with Open3D or not, so that
+/// a request for one is recognised and, without Open3D, reported unavailable.
+std::vector<std::string> open3dMethodNames();
+
 /// Open3D's point-to-plane ICP from identity, FGR (FPFH), RANSAC (FPFH), and FGR followed by ICP;
 /// with `colored`, also Open3D's coloured ICP (Park, Zhou & Koltun 2017) from the identity and
 /// after FGR, coarse to fine over four gates (icp_max_distance, then 0.4, 0.2 and 0.1 of it, each

@@ -7,6 +7,7 @@
 /// picks the preset from its protocol or from the pairs themselves; any tool that registers
 /// that kind of data can load the same `matcher:` (ScanMatcherConfig::load).
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "obm/obmnet/data.hpp"
@@ -77,9 +78,11 @@ struct Preset {
   registration::ScanMatcherConfig matcher;
   BenchParams bench;
 
-  /// Loads `file`, first applying `assignments` (`matcher.icp.kernel_scale=0.2`,
+  /// Loads `file`, first setting the text values `texts` (key path, value: file names, which YAML
+  /// need not read back as text), then applying `assignments` (`matcher.icp.kernel_scale=0.2`,
   /// `benchmark.recall_deg=5`: obm-bench's --set). Errors name the file and key.
-  static Preset load(const std::string& file, const std::vector<std::string>& assignments = {});
+  static Preset load(const std::string& file, const std::vector<std::string>& assignments = {},
+                     const std::vector<std::pair<std::string, std::string>>& texts = {});
 };
 
 /// The preset for a folder of pairs of unknown kind, from the clouds' geometry (the median over
