@@ -65,8 +65,9 @@ int main(int argc, char** argv) {
       "depth time stamps; the convention of obm-map's) and metrics.json (frames, failures, wall "
       "time, frames/s, method, and ATE / RPE when the input has ground truth).\n"
       "Inputs: TUM RGB-D (as obm-sim writes it), ICL-NUIM, 7-Scenes or Redwood / Open3D "
-      "(depth/, color/, camera_primesense.json, trajectory.log) folders; colour is required, PNG "
-      "or JPEG.\nCtrl-C stops after the current frame and writes the frames processed so far."};
+      "(depth/, color/, camera_primesense.json, trajectory.log) folders, PNG or JPEG; a frame "
+      "without a colour image (or with an unreadable one) is skipped and named, and listed in "
+      "metrics.json.\nCtrl-C stops after the current frame and writes the frames processed so far."};
   std::string input, out_dir, ground_truth, method_text = "hybrid", init_text = "velocity",
                                             log_level;
   std::size_t max_frames = 0;
@@ -134,6 +135,10 @@ int main(int argc, char** argv) {
     o.cancel = &obm::apps::installCancelHandler();
     const obm::o3d::OdometryRun run = obm::o3d::runOdometry(seq, o);
     const std::size_t n = run.T_world_camera.size();
+    if (n == 0 && !run.skipped_frames.empty())
+      throw obm::IoError("input '" + input + "': none of its " +
+                         std::to_string(run.skipped_frames.size()) +
+                         " frame(s) could be read; the first: " + run.skip_reasons.front());
     const std::string traj_path = (out / "trajectory_tum.txt").string();
     obm::io::writeTumTrajectory(traj_path, obm::io::stampPoses(run.T_world_camera, run.stamps));
 
@@ -165,6 +170,8 @@ int main(int argc, char** argv) {
     j["frames"] = n;
     j["failures"] = run.failed_frames.size();
     j["failed_frames"] = run.failed_frames;
+    j["skipped"] = run.skipped_frames.size();
+    j["skipped_frames"] = run.skipped_frames;
     j["wall_s"] = wall_s;
     j["frames_per_second"] = fps;
     j["read_s"] = run.read_s;
@@ -186,7 +193,8 @@ int main(int argc, char** argv) {
 
     std::cout << "method          " << obm::o3d::toString(o.method) << " (init "
               << obm::o3d::toString(o.init) << ")\n"
-              << "frames          " << n << ", failures " << run.failed_frames.size() << "\n"
+              << "frames          " << n << ", failures " << run.failed_frames.size()
+              << ", skipped " << run.skipped_frames.size() << "\n"
               << "speed           " << fixed(fps, 2) << " frames/s (" << fixed(wall_s, 1)
               << " s)\n";
     if (std::isfinite(ate))
@@ -199,6 +207,10 @@ int main(int argc, char** argv) {
       OBM_LOG_WARN(kLog, run.failed_frames.size()
                              << " frame(s) failed, first: frame " << run.failed_frames.front()
                              << " (" << run.failure_reasons.front() << ")");
+    if (!run.skipped_frames.empty())
+      OBM_LOG_WARN(kLog, run.skipped_frames.size()
+                             << " frame(s) skipped (left out of the trajectory), first: "
+                             << run.skip_reasons.front());
     if (run.interrupted) {
       std::cerr << "obm-o3d-odometry: interrupted; wrote the " << n
                 << " frames processed so far to '" << out_dir << "'\n";

@@ -319,19 +319,41 @@ OdometryRun runOdometry(const io::RgbdSequence& seq, const OdometryOptions& o) {
   ProgressBar bar(n, "obm-o3d-odometry", "frames");
   bar.setEnabled(o.progress);
   Frame previous;
+  bool have_previous = false;
+  std::size_t skipped_since_previous = 0;  // frames between `previous` and this one
   Isometry3d T_world = Isometry3d::Identity();
   Eigen::Matrix4d velocity = Eigen::Matrix4d::Identity();  // T_{i-1}_i of the last frame
+  const auto status = [&run] {
+    return "failures " + std::to_string(run.failed_frames.size()) + ", skipped " +
+           std::to_string(run.skipped_frames.size());
+  };
   for (std::size_t i = 0; i < n; ++i) {
     if (o.cancel && o.cancel->load()) {
       run.interrupted = true;
       break;
     }
     Timer read_timer;
-    Frame current = est.load(i);
+    Frame current;
+    try {
+      current = est.load(i);
+    } catch (const Error& e) {
+      // A real sequence has frames like this (a colour image the recorder dropped, a truncated
+      // file): the frame is left out of the trajectory and named, the run carries on from the
+      // last frame it could read.
+      run.read_s += read_timer.seconds();
+      run.skipped_frames.push_back(i);
+      run.skip_reasons.push_back(e.what());
+      OBM_LOG_WARN(kLog, e.what() << "; frame skipped");
+      if (have_previous) ++skipped_since_previous;
+      bar.update(i + 1, status());
+      continue;
+    }
     run.read_s += read_timer.seconds();
-    if (i > 0) {
-      const Eigen::Matrix4d guess =
-          o.init == InitGuess::ConstantVelocity ? velocity : Eigen::Matrix4d::Identity();
+    if (have_previous) {
+      // The guess spans every skipped frame: the constant velocity applied once per frame step.
+      Eigen::Matrix4d guess = Eigen::Matrix4d::Identity();
+      if (o.init == InitGuess::ConstantVelocity)
+        for (std::size_t k = 0; k <= skipped_since_previous; ++k) guess = guess * velocity;
       Eigen::Matrix4d T_prev_cur = guess;
       std::string reason;
       Timer odo_timer;
@@ -348,14 +370,27 @@ OdometryRun runOdometry(const io::RgbdSequence& seq, const OdometryOptions& o) {
                                << " guess");
       }
       velocity = T_prev_cur;
+      if (skipped_since_previous > 0) {
+        // Back to a per-frame step across the gap: the angle and the translation divided
+        // evenly (the motion assumed uniform over the skipped frames).
+        const double steps = static_cast<double>(skipped_since_previous + 1);
+        const Isometry3d T = toIso(T_prev_cur);
+        const Eigen::AngleAxisd aa(T.linear());
+        Isometry3d step = Isometry3d::Identity();
+        step.linear() = Eigen::AngleAxisd(aa.angle() / steps, aa.axis()).toRotationMatrix();
+        step.translation() = T.translation() / steps;
+        velocity = step.matrix();
+      }
       T_world = T_world * toIso(T_prev_cur);
     }
     run.stamps.push_back(seq.frame(i).timestamp);
     run.T_world_camera.push_back(T_world);
     previous = std::move(current);
-    bar.update(i + 1, "failures " + std::to_string(run.failed_frames.size()));
+    have_previous = true;
+    skipped_since_previous = 0;
+    bar.update(i + 1, status());
   }
-  bar.finish("failures " + std::to_string(run.failed_frames.size()));
+  bar.finish(status());
   return run;
 }
 

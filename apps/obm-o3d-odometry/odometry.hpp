@@ -62,6 +62,10 @@ struct OdometryRun {
   std::vector<Isometry3d> T_world_camera;    ///< optical frame; the first frame is the identity
   std::vector<std::size_t> failed_frames;    ///< frames whose estimate failed (the guess was kept)
   std::vector<std::string> failure_reasons;  ///< one per failed frame
+  /// Frames that could not be read (no colour image associated, a missing or unreadable file):
+  /// left out of the trajectory, the next frame registered against the last one read.
+  std::vector<std::size_t> skipped_frames;
+  std::vector<std::string> skip_reasons;  ///< one per skipped frame (names the frame and file)
   double read_s = 0.0;                       ///< [s] reading the images and preparing them
   double odometry_s = 0.0;                   ///< [s] in Open3D's estimators
   bool interrupted = false;                  ///< stopped by `cancel`
@@ -70,9 +74,10 @@ struct OdometryRun {
 /// Frame-to-frame odometry of `seq` (its intrinsics, depth scale and time stamps); each frame's
 /// depth and colour images are read with Open3D's own reader (PNG, JPEG). The relative motion
 /// of frame i is estimated against frame i − 1 from the `init` guess and chained:
-/// T_world_i = T_world_{i−1} · T_{i−1}_i. Throws IoError / FormatError naming the frame and the
-/// file for an image that is missing, unreadable, of the wrong type or of the wrong size, and for
-/// a frame without a colour image.
+/// T_world_i = T_world_{i−1} · T_{i−1}_i. A frame whose images cannot be used (no colour image
+/// associated with it, a missing or unreadable file, the wrong type or size) is skipped and
+/// listed in OdometryRun::skipped_frames with the error naming the frame and the file; the next
+/// frame is registered against the last one read, from the velocity guess spanning the gap.
 OdometryRun runOdometry(const io::RgbdSequence& seq, const OdometryOptions& options);
 
 /// Open3D's global verbosity for the project's log level: debug → Debug, info → Warning, else

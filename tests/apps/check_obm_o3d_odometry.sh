@@ -35,7 +35,8 @@ if "$tool" -i "$data" -o "$work/out_bad_method" -m nope -q 2> "$work/method.err"
 fi
 grep -q "nope" "$work/method.err" || fail "unknown method not named: $(cat "$work/method.err")"
 
-# A frame whose colour image is not an image: the frame and the file are named, exit code 1.
+# A frame whose colour image is not an image: the run carries on without it, names the frame and
+# the file, leaves it out of the trajectory and lists it in metrics.json.
 bad="$work/bad_color"
 mkdir -p "$bad/depth" "$bad/color"
 for f in "$data"/depth/*.png; do ln -s "$f" "$bad/depth/$(basename "$f")"; done
@@ -43,11 +44,22 @@ for f in "$data"/color/*.jpg; do ln -s "$f" "$bad/color/$(basename "$f")"; done
 rm "$bad/color/00002.jpg"
 echo "not a JPEG" > "$bad/color/00002.jpg"
 ln -s "$data/camera_primesense.json" "$bad/camera_primesense.json"
-if "$tool" -i "$bad" -o "$work/out_bad" -q 2> "$work/bad.err"; then
-  fail "an unreadable colour image was accepted"
-fi
-grep -q "frame 2" "$work/bad.err" || fail "bad frame not named: $(cat "$work/bad.err")"
+"$tool" -i "$bad" -o "$work/out_bad" -q > "$work/bad.log" 2> "$work/bad.err" ||
+  { cat "$work/bad.err"; fail "a sequence with one unreadable colour image stopped"; }
+grep -q "frame 2" "$work/bad.err" || fail "skipped frame not named: $(cat "$work/bad.err")"
 grep -q "color/00002.jpg" "$work/bad.err" || fail "bad file not named: $(cat "$work/bad.err")"
+[[ $(grep -cv '^#' "$work/out_bad/trajectory_tum.txt") -eq 4 ]] || fail "skipped frame: not 4 poses"
+[[ $(num skipped "$work/out_bad/metrics.json") -eq 1 ]] || fail "metrics.json: skipped != 1"
+grep -A2 '"skipped_frames"' "$work/out_bad/metrics.json" | grep -qw 2 || fail "skipped_frames lacks 2"
+
+# Every colour image unreadable: exit code 1 naming the first frame, no trajectory.
+for f in "$bad"/color/*.jpg; do rm "$f"; echo "not a JPEG" > "$f"; done
+if "$tool" -i "$bad" -o "$work/out_none" -q 2> "$work/none.err"; then
+  fail "a sequence with no readable frame was accepted"
+fi
+grep -q "none of its 5 frame(s) could be read" "$work/none.err" || fail "no-frame error: $(cat "$work/none.err")"
+grep -q "frame 0" "$work/none.err" || fail "no-frame error does not name frame 0"
+[[ ! -e $work/out_none/trajectory_tum.txt ]] || fail "a run with no frame wrote a trajectory"
 
 # ate_vs_log TRAJ_TUM LOG: ATE RMSE [m] of a TUM trajectory against a Redwood trajectory.log (pose
 # k = item k) after the rigid alignment (Horn's quaternion method, eigenvectors by Jacobi rotations).
