@@ -144,10 +144,10 @@ int main(int argc, char** argv) {
 
     // Ground truth of the frames that have one (the layout's, or --gt associated by time).
     obm::eval::PoseList est, ref;
-    for (std::size_t i = 0; i < n; ++i)
-      if (seq.frame(i).has_pose) {
-        est.push_back(run.T_world_camera[i]);
-        ref.push_back(seq.frame(i).T_world_camera);
+    for (std::size_t k = 0; k < n; ++k)
+      if (const obm::io::RgbdFrame& f = seq.frame(run.frames[k]); f.has_pose) {
+        est.push_back(run.T_world_camera[k]);
+        ref.push_back(f.T_world_camera);
       }
     const double nan = std::numeric_limits<double>::quiet_NaN();
     double ate = nan, rpe_t = nan, rpe_r = nan;

@@ -384,6 +384,7 @@ OdometryRun runOdometry(const io::RgbdSequence& seq, const OdometryOptions& o) {
       T_world = T_world * toIso(T_prev_cur);
     }
     run.stamps.push_back(seq.frame(i).timestamp);
+    run.frames.push_back(i);
     run.T_world_camera.push_back(T_world);
     previous = std::move(current);
     have_previous = true;

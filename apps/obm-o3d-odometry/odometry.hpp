@@ -59,6 +59,7 @@ struct OdometryOptions {
 /// What runOdometry() produced.
 struct OdometryRun {
   std::vector<double> stamps;                ///< [s] depth time stamp of every processed frame
+  std::vector<std::size_t> frames;           ///< its index in the sequence (skipped ones absent)
   std::vector<Isometry3d> T_world_camera;    ///< optical frame; the first frame is the identity
   std::vector<std::size_t> failed_frames;    ///< frames whose estimate failed (the guess was kept)
   std::vector<std::string> failure_reasons;  ///< one per failed frame

@@ -44,6 +44,7 @@ for f in "$data"/color/*.jpg; do ln -s "$f" "$bad/color/$(basename "$f")"; done
 rm "$bad/color/00002.jpg"
 echo "not a JPEG" > "$bad/color/00002.jpg"
 ln -s "$data/camera_primesense.json" "$bad/camera_primesense.json"
+ln -s "$data/trajectory.log" "$bad/trajectory.log"
 "$tool" -i "$bad" -o "$work/out_bad" -q > "$work/bad.log" 2> "$work/bad.err" ||
   { cat "$work/bad.err"; fail "a sequence with one unreadable colour image stopped"; }
 grep -q "frame 2" "$work/bad.err" || fail "skipped frame not named: $(cat "$work/bad.err")"
@@ -51,6 +52,10 @@ grep -q "color/00002.jpg" "$work/bad.err" || fail "bad file not named: $(cat "$w
 [[ $(grep -cv '^#' "$work/out_bad/trajectory_tum.txt") -eq 4 ]] || fail "skipped frame: not 4 poses"
 [[ $(num skipped "$work/out_bad/metrics.json") -eq 1 ]] || fail "metrics.json: skipped != 1"
 grep -A2 '"skipped_frames"' "$work/out_bad/metrics.json" | grep -qw 2 || fail "skipped_frames lacks 2"
+# The 4 poses are scored against the ground truth of their own frames (0, 1, 3, 4): measured
+# 0.0006 m; paired by position instead (frame 3 with the truth of frame 2) the ATE is centimetres.
+[[ $(num frames_evaluated "$work/out_bad/metrics.json") -eq 4 ]] || fail "skipped frame: not 4 frames evaluated"
+lt "$(num ate_rmse_m "$work/out_bad/metrics.json")" 0.002 || fail "skipped frame: ATE above 0.002 m"
 
 # Every colour image unreadable: exit code 1 naming the first frame, no trajectory.
 for f in "$bad"/color/*.jpg; do rm "$f"; echo "not a JPEG" > "$f"; done
