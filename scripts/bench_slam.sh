@@ -14,12 +14,15 @@
 # A folder that exists is reused when its sim_info.yaml names the same preset, seed and frames.
 # OUT_DIR/runs/NAME/ gets obm-map's outputs plus load.txt (uptime before and after the run) and
 # the command; OUT_DIR/mrpt/ the MRPT icp-slam comparison; OUT_DIR/table.md the Markdown table.
-# The indoor part also runs Open3D's classical RGB-D odometry (bin/obm-o3d-odometry, built when
-# Open3D is found; --method hybrid and colored_icp) on fr1xyz and fr2desk into
-# OUT_DIR/runs/SEQ_o3d_METHOD/, and obm-map and both peers on the 5 real frames of
-# $OBM_SHARED_DATA/rgbd_open3d (ground truth trajectory.log) into OUT_DIR/runs/rgbd_open3d*/; the
-# table's "indoor RGB-D" part scores all of them from their trajectory_tum.txt (ATE after rigid
-# alignment, RPE over 1 frame).
+# The indoor part runs every sequence three ways (the configuration as shipped; NAME_icp, the
+# ICP-only pipeline, --matcher icp; NAME_geometric, colour and depth-noise terms off), adds the whole
+# real TUM sequence $OBM_SHARED_DATA/tum/rgbd_dataset_freiburg1_rpy (fr1rpy, read in place), and
+# runs Open3D's classical RGB-D odometry (bin/obm-o3d-odometry, built when Open3D is found;
+# --method hybrid and colored_icp) on each into OUT_DIR/runs/SEQ_o3d_METHOD/, and obm-map and both
+# peers on the 5 real frames of $OBM_SHARED_DATA/rgbd_open3d (ground truth trajectory.log) into
+# OUT_DIR/runs/rgbd_open3d*/; the table's "indoor RGB-D" part scores all of them from their
+# trajectory_tum.txt (ATE after rigid alignment, RPE over 1 frame) and lists obm-map's loops with
+# the number its own check against the truth calls wrong (> 0.5 m or 2°).
 #
 # Options:
 #   --build DIR         build folder with bin/obm-map and bin/obm-sim      [default: ROOT/build]
@@ -161,9 +164,17 @@ if want indoor; then
   ensure_seq office indoor_loop 0
   GEOMETRIC=(--set input.rgbd_color=false --set tracking.icp.color_weight=0
              --set tracking.icp.depth_noise_weights=false)
-  for seq in fr1xyz fr2desk office; do
-    run_map "$seq" -c "$INDOOR_CFG" -i "$DATA/$seq"
-    run_map "${seq}_geometric" -c "$INDOOR_CFG" -i "$DATA/$seq" "${GEOMETRIC[@]}"
+  # The real TUM sequence: the whole of freiburg1_rpy (Kinect, motion-capture ground truth).
+  RPY=$OBM_SHARED_DATA/tum/rgbd_dataset_freiburg1_rpy
+  [[ -f $RPY/groundtruth.txt ]] || { echo "bench_slam.sh: $RPY/groundtruth.txt missing" >&2; exit 1; }
+  # Each sequence: the configuration as shipped, the ICP-only pipeline (--matcher icp: the network
+  # nowhere) and the geometric tracking (colour and depth-noise terms off).
+  for seq in fr1xyz fr2desk office fr1rpy; do
+    input=$DATA/$seq
+    [[ $seq == fr1rpy ]] && input=$RPY
+    run_map "$seq" -c "$INDOOR_CFG" -i "$input"
+    run_map "${seq}_icp" -c "$INDOOR_CFG" -i "$input" --matcher icp
+    run_map "${seq}_geometric" -c "$INDOOR_CFG" -i "$input" "${GEOMETRIC[@]}"
   done
   # The classical peer on the same sequences, and both systems on the 5 real frames of
   # rgbd_open3d (Redwood layout, ground truth trajectory.log, which obm-map reads itself).
@@ -173,6 +184,7 @@ if want indoor; then
   if [[ -x $O3D ]]; then
     for method in ${O3D_METHODS//,/ }; do
       for seq in fr1xyz fr2desk office; do run_peer "${seq}_o3d_$method" "$method" "$DATA/$seq"; done
+      run_peer "fr1rpy_o3d_$method" "$method" "$RPY"
       run_peer "rgbd_open3d_o3d_$method" "$method" "$REAL"
     done
   else
@@ -494,6 +506,8 @@ indoor = []
 for seq, label, gt_file in (('fr1xyz', 'indoor_tum_fr1_xyz (sim)', os.path.join(data, 'fr1xyz', 'groundtruth.txt')),
                             ('fr2desk', 'indoor_tum_fr2_desk (sim)', os.path.join(data, 'fr2desk', 'groundtruth.txt')),
                             ('office', 'indoor_loop, office floor (sim)', os.path.join(data, 'office', 'groundtruth.txt')),
+                            ('fr1rpy', 'TUM freiburg1_rpy (real, whole)',
+                             os.path.join(shared, 'tum', 'rgbd_dataset_freiburg1_rpy', 'groundtruth.txt') if shared else ''),
                             ('rgbd_open3d', 'rgbd_open3d (shared data, 5 frames)',
                              os.path.join(shared, 'rgbd_open3d', 'trajectory.log') if shared else '')):
     if not gt_file or not os.path.exists(gt_file):
@@ -502,7 +516,7 @@ for seq, label, gt_file in (('fr1xyz', 'indoor_tum_fr1_xyz (sim)', os.path.join(
         gt = [(k / 30.0, T) for k, T in enumerate(read_redwood_log(gt_file))]
     else:
         gt = read_tum_stamped(gt_file)
-    for name, system in [(seq, None), (f'{seq}_geometric', None)] + [(f'{seq}_o3d_{m}', lab) for m, lab in PEERS]:
+    for name, system in [(seq, None), (f'{seq}_icp', None), (f'{seq}_geometric', None)] + [(f'{seq}_o3d_{m}', lab) for m, lab in PEERS]:
         run = os.path.join(out, 'runs', name)
         traj = os.path.join(run, 'trajectory_tum.txt')
         m = jload(os.path.join(run, 'metrics.json'))
@@ -519,18 +533,25 @@ for seq, label, gt_file in (('fr1xyz', 'indoor_tum_fr1_xyz (sim)', os.path.join(
             # obm-map's counterpart of a failed estimate: a frame bridged by the motion model
             fps, system = t['frames_per_second'] if t else None, map_label(run)
             if name.endswith('_geometric'):
-                system += ', geometric ICP only (no colour, no depth-noise weights)'
+                system += ', geometric tracking (no colour, no depth-noise weights)'
+            elif name.endswith('_icp'):
+                system += ', --matcher icp (no network)'
             failures = f"{m['frames_bridged']} bridged" if 'frames_bridged' in m else '—'
+            # loops accepted, and how many of them obm-map's own check against the truth calls wrong
+            loops = f"{m.get('loops_accepted', 0)} ({m.get('loops_wrong', 0)} wrong)" if m.get('loops_checked') is not None else '—'
         else:
             fps, failures = m['frames_per_second'], str(m['failures'])
+            if m.get('skipped'):
+                failures += f", {m['skipped']} skipped"
+            loops = '—'
         if m.get('ate_rmse_m') is not None and abs(m['ate_rmse_m'] - a) > 1e-3 * max(0.01, m['ate_rmse_m']):
             print(f'<!-- warning: {name}: ATE {a:.5f} here vs {m["ate_rmse_m"]:.5f} in metrics.json -->')
         indoor.append((label, str(len(est)), system, f'{100 * a:.2f} cm', fmt(rt and 100 * rt, '{:.3f} cm'),
-                       fmt(rr, '{:.3f}°'), failures, fmt(fps, '{:.1f}'), load_range(run)))
+                       fmt(rr, '{:.3f}°'), failures, loops, fmt(fps, '{:.1f}'), load_range(run)))
 if indoor:
     print()
-    print('| indoor RGB-D sequence | frames | system | ATE RMSE | RPE (1 frame) trans | RPE (1 frame) rot | odometry failures | frames/s (wall) | load (1 min) |')
-    print('|---|---|---|---|---|---|---|---|---|')
+    print('| indoor RGB-D sequence | frames | system | ATE RMSE | RPE (1 frame) trans | RPE (1 frame) rot | odometry failures | loops (wrong) | frames/s (wall) | load (1 min) |')
+    print('|---|---|---|---|---|---|---|---|---|---|')
     for r in indoor:
         print('| ' + ' | '.join(r) + ' |')
 PY

@@ -42,8 +42,7 @@ num final_chi2 "$work/graph.json" > /dev/null
 
 # RGB-D: 30 frames of an office walk, mapped with the indoor configuration.
 run sim_rgbd "$bin/obm-sim" --preset indoor_loop --frames 30 --seed 7 --out "$work/walk" --quiet --log-level warn
-run map_rgbd "$bin/obm-map" --config config/map_indoor.yaml --input "$work/walk" --out "$work/walk_map" \
-  --matcher obmnet+icp -q
+run map_rgbd "$bin/obm-map" --config config/map_indoor.yaml --input "$work/walk" --out "$work/walk_map" -q
 [[ $(wc -l < "$work/walk_map/trajectory_tum.txt") -ge 30 ]] || fail "obm-map (RGB-D): not 30 poses"
 ate=$(num ate_rmse_m "$work/walk_map/metrics.json")
 lt "$ate" 0.006 || fail "obm-map (RGB-D): ATE $ate m on 30 frames (measured 0.0022 m)"

@@ -683,12 +683,12 @@ TEST(ModelAccuracy, IndoorModelOnPairsOfRealRgbdFrames) {
 }
 
 TEST(ModelAccuracy, IndoorModelAloneOnRealFragmentPairs) {
-  // obm-map's indoor model (obmnet_indoor.pt, config/map_indoor.yaml) alone, before any ICP, on
-  // the pairs of its protocol (RIENet's 7Scenes: one fragment cut twice, turned up to 45°, moved
-  // up to 0.5 of its radius; the `indoor` preset) made from the five real frames of Open3D's data,
-  // its test group (no training run saw them): two pairs per frame. Measured (mean RRE of ten,
-  // pairs within 5°): the shipped model 1.10°, 9 of 10; an untrained network of the same shape
-  // (tests/untrained_like, seed 7) 19.4°, 1 of 10; not moving 52.9°, 0 of 10.
+  // The fragments preset's model (obmnet_indoor.pt, config/presets/fragments.yaml) alone, before
+  // any ICP, on the pairs of its protocol (RIENet's 7Scenes: one fragment cut twice, turned up to
+  // 45°, moved up to 0.5 of its radius; the `indoor` preset) made from the five real frames of
+  // Open3D's data, its test group (no training run saw them): two pairs per frame. Measured
+  // (mean RRE of ten, pairs within 5°): the shipped model 1.10°, 9 of 10; an untrained network of
+  // the same shape (tests/untrained_like, seed 7) 19.4°, 1 of 10; not moving 52.9°, 0 of 10.
   // Bounds: 2° (1.8× the measured mean) and 8 of 10.
   OBM_REQUIRE_SHARED_DATA("rgbd_open3d/trajectory.log");
   datasets::RgbdFragmentOptions fo;

@@ -242,6 +242,67 @@ TEST(MappingAppLoops, ScoredAgainstTheGroundTruthsRelativePose) {
   EXPECT_TRUE(std::isnan(m.loop_error_max_m));
 }
 
+// The ledger of the matcher's results per call site: which started from the network's pose,
+// which were taken, and which of the taken were off the truth (the wrong-loop bounds): for loops
+// the loop's relative pose, for recovered frames the motion from the frame before.
+TEST(MappingAppLedger, CountsTheNetworksPosesPerCallSiteAndJudgesTheTakenOnes) {
+  using registration::MatchStart;
+  auto pose = [](double x, double yaw_deg) {
+    Isometry3d T = Isometry3d::Identity();
+    T.linear() = Eigen::AngleAxisd(yaw_deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()).matrix();
+    T.translation() = Eigen::Vector3d(x, 0.0, 0.0);
+    return T;
+  };
+  const std::vector<std::optional<Isometry3d>> gt = {pose(0, 0), pose(1, 10), pose(2, 20),
+                                                      std::nullopt, pose(4, 40)};
+  const std::vector<std::size_t> keyframe_frames = {0, 2, 4};  // keyframe k at frame 2k
+  auto loop = [&](std::size_t from, std::size_t to, const Isometry3d& error, bool accepted,
+                  MatchStart start) {
+    frontend::LoopClosure lc;
+    lc.from = from;
+    lc.to = to;
+    lc.accepted = accepted;
+    lc.start = start;
+    lc.T_from_to = gt[keyframe_frames[from]]->inverse() * *gt[keyframe_frames[to]] * error;
+    return lc;
+  };
+  const std::vector<frontend::LoopClosure> loops = {
+      loop(0, 2, Isometry3d::Identity(), true, MatchStart::Guess),   // right
+      loop(0, 1, pose(0.0, 3.0), true, MatchStart::Network),         // 3 deg off: wrong
+      loop(1, 2, Isometry3d::Identity(), true, MatchStart::Hypothesis),  // right
+      loop(0, 2, pose(2.0, 0.0), false, MatchStart::Network),        // rejected: not judged
+  };
+  // Frames 1 and 4 recovered: frame 1 from the network with the true motion, frame 4 (its
+  // previous frame has no truth) not checked; frame 2 tracked.
+  using S = frontend::TrackingStatus;
+  const std::vector<S> statuses = {S::Initial, S::Recovered, S::Tracked, S::Tracked, S::Recovered};
+  const std::vector<MatchStart> starts = {MatchStart::Guess, MatchStart::Network, MatchStart::Guess,
+                                          MatchStart::Guess, MatchStart::Guess};
+  std::vector<Isometry3d> traj;
+  for (std::size_t i = 0; i < gt.size(); ++i) traj.push_back(gt[i] ? *gt[i] : pose(3, 30));
+  const MatcherLedger l = matcherLedger(loops, keyframe_frames, statuses, starts, traj, gt);
+  EXPECT_EQ(l.loop_verification.results, 4u);
+  EXPECT_EQ(l.loop_verification.network, 3u);
+  EXPECT_EQ(l.loop_verification.taken, 3u);
+  EXPECT_EQ(l.loop_verification.taken_network, 2u);
+  EXPECT_EQ(l.loop_verification.checked, 3u);
+  EXPECT_EQ(l.loop_verification.wrong, 1u);
+  EXPECT_EQ(l.loop_verification.wrong_network, 1u);
+  EXPECT_EQ(l.recovery.taken, 2u);
+  EXPECT_EQ(l.recovery.taken_network, 1u);
+  EXPECT_EQ(l.recovery.checked, 1u);
+  EXPECT_EQ(l.recovery.wrong, 0u);
+
+  // A recovered frame whose motion is 1 m off the truth's is wrong.
+  traj[1] = traj[1] * pose(1.0, 0.0);
+  EXPECT_EQ(matcherLedger({}, keyframe_frames, statuses, starts, traj, gt).recovery.wrong, 1u);
+  // Without ground truth nothing is checked; the counts stay.
+  const MatcherLedger none = matcherLedger(loops, keyframe_frames, statuses, starts, traj, {});
+  EXPECT_EQ(none.loop_verification.taken_network, 2u);
+  EXPECT_EQ(none.loop_verification.checked, 0u);
+  EXPECT_EQ(none.recovery.checked, 0u);
+}
+
 TEST(MappingApp, RawlogOfTheSameDriveWithItsGroundTruth) {
   const std::string seq = lidarSequence();
   const std::string out = test::scratchDir("slam_rawlog_out");

@@ -171,6 +171,7 @@ registration::MatchResult LoopCloser::verifyFrom(LoopClosure& lc,
   lc.T_from_to = r.T_target_source;
   lc.quality = r.quality;
   lc.inlier_ratio = r.inlier_ratio;
+  lc.start = r.start;
   const Isometry3d correction = T_init.inverse() * r.T_target_source;
   lc.correction = correction.translation().norm();
   lc.correction_rotation = rotationAngle(correction.linear());

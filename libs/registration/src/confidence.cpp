@@ -36,6 +36,24 @@ Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
 
 }  // namespace
 
+const char* toString(MatchStart start) {
+  switch (start) {
+    case MatchStart::Guess:
+      return "guess";
+    case MatchStart::Network:
+      return "network";
+    case MatchStart::Hypothesis:
+      return "hypothesis";
+    case MatchStart::Heading:
+      return "heading";
+    case MatchStart::Turn:
+      return "turn";
+    case MatchStart::Search:
+      return "search";
+  }
+  return "?";
+}
+
 const char* toString(MatchStatus status) {
   switch (status) {
     case MatchStatus::Ok:

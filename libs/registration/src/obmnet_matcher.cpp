@@ -246,6 +246,7 @@ MatchResult ObmNetMatcher::impl_match(const PointCloud& source, const PreparedTa
   MatchResult result;
   result.T_target_source = net.T_target_source;
   result.converged = true;
+  result.start = MatchStart::Network;
   return withNetworkConfidence(std::move(result), net, source, target, icp_, confidence_);
 }
 
@@ -310,6 +311,7 @@ Refinement refineFrom(const obmnet::ObmNetRegistrar& registrar, const ObmNetMatc
   const NetworkStage net = runNetwork(registrar, params, source, target, T_target_source_init);
   if (!net.ok) return {networkFailure(net, T_target_source_init), net};
   Isometry3d T_start = net.T_target_source;
+  MatchStart start = MatchStart::Network;
   if (params.keep_init_if_better) {
     // Which start explains more source points within the first (coarsest) ICP gate?
     IcpParams first = icp_;
@@ -323,6 +325,7 @@ Refinement refineFrom(const obmnet::ObmNetRegistrar& registrar, const ObmNetMatc
             .num_correspondences;
     if (n_init > n_net) {
       T_start = T_target_source_init;
+      start = MatchStart::Guess;
       OBM_LOG_DEBUG("registration", "obmnet+icp: starting ICP from the initial guess ("
                                         << n_init << " vs " << n_net << " paired points)");
     }
@@ -420,12 +423,17 @@ Refinement refineFrom(const obmnet::ObmNetRegistrar& registrar, const ObmNetMatc
                 heading_won ? 1.0 : params.init_headings_margin))
       heading_won = true;
   }
-  if (heading_won)
+  MatchResult result = icp.toMatchResult();
+  result.start = start;
+  if (heading_won) {
     OBM_LOG_DEBUG("registration",
                   "obmnet+icp: a blind heading from the guess has the most inliers");
-  else if (winner > 0)
-    return {icp.toMatchResult(), net.withHypothesis(winner)};
-  return {icp.toMatchResult(), net};
+    result.start = MatchStart::Heading;
+  } else if (winner > 0) {
+    result.start = MatchStart::Hypothesis;
+    return {std::move(result), net.withHypothesis(winner)};
+  }
+  return {std::move(result), net};
 }
 
 }  // namespace
@@ -502,6 +510,7 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
       // Back to the source's own frame: the pose, and the network's points (for the score, and
       // the confidence and the information, evaluated once below on the untouched source).
       r.result.T_target_source = r.result.T_target_source * turn;
+      if (r.result.start == MatchStart::Guess) r.result.start = MatchStart::Turn;
       const Eigen::Matrix3f R_back = turn.linear().transpose().cast<float>();
       for (auto& q : r.net.sampled) q = R_back * q;
       const double s = score(r, "turn", turn_index);
@@ -524,6 +533,7 @@ MatchResult ObmNetIcpMatcher::impl_match(const PointCloud& source, const Prepare
          correlativeSearch(source, target.cloud(), sp, T_target_source_init)) {
       const IcpOutcome o = runIcp(source.points, target, hit.T_target_source, icp_, nullptr, grey);
       Refinement r{o.toMatchResult(), first_net};
+      r.result.start = MatchStart::Search;
       const double s = score(r, "search pose", ++hit_index);
       if (s <= best_score) continue;
       best = std::move(r);

@@ -184,6 +184,56 @@ void scoreLoops(const std::vector<frontend::LoopClosure>& loops,
   }
 }
 
+namespace {
+/// Off the truth by more than the wrong-loop bounds (kWrongLoopTranslation, kWrongLoopRotationDeg).
+bool offTruth(const Isometry3d& T_measured, const Isometry3d& T_truth) {
+  const Isometry3d E = T_truth.inverse() * T_measured;
+  return E.translation().norm() > kWrongLoopTranslation ||
+         rotationAngle(E.linear()) * kRadToDeg > kWrongLoopRotationDeg;
+}
+}  // namespace
+
+MatcherLedger matcherLedger(const std::vector<frontend::LoopClosure>& loops,
+                            const std::vector<std::size_t>& keyframe_frames,
+                            const std::vector<frontend::TrackingStatus>& statuses,
+                            const std::vector<registration::MatchStart>& starts,
+                            const std::vector<Isometry3d>& traj,
+                            const std::vector<std::optional<Isometry3d>>& T_world_body) {
+  MatcherLedger ledger;
+  auto truth = [&](std::size_t frame) -> const std::optional<Isometry3d>* {
+    return frame < T_world_body.size() && T_world_body[frame] ? &T_world_body[frame] : nullptr;
+  };
+  auto count = [](MatcherSite& site, bool network, bool taken, std::optional<bool> wrong) {
+    ++site.results;
+    site.network += network;
+    if (!taken) return;
+    ++site.taken;
+    site.taken_network += network;
+    if (!wrong) return;
+    ++site.checked;
+    site.wrong += *wrong;
+    site.wrong_network += *wrong && network;
+  };
+  for (const auto& lc : loops) {
+    std::optional<bool> wrong;
+    if (lc.accepted && lc.from < keyframe_frames.size() && lc.to < keyframe_frames.size()) {
+      const auto* a = truth(keyframe_frames[lc.from]);
+      const auto* b = truth(keyframe_frames[lc.to]);
+      if (a && b) wrong = offTruth(lc.T_from_to, (*a)->inverse() * **b);
+    }
+    count(ledger.loop_verification, registration::fromNetwork(lc.start), lc.accepted, wrong);
+  }
+  for (std::size_t i = 1; i < statuses.size() && i < starts.size() && i < traj.size(); ++i) {
+    if (statuses[i] != frontend::TrackingStatus::Recovered) continue;
+    std::optional<bool> wrong;
+    const auto* a = truth(i - 1);
+    const auto* b = truth(i);
+    if (a && b) wrong = offTruth(traj[i - 1].inverse() * traj[i], (*a)->inverse() * **b);
+    count(ledger.recovery, registration::fromNetwork(starts[i]), true, wrong);
+  }
+  return ledger;
+}
+
 MappingApp::MappingApp(SlamConfig config, MappingAppOptions options)
     : config_(std::move(config)), options_(std::move(options)) {
   if (options_.input.empty()) throw ConfigError("obm-map: the input is empty");
@@ -315,6 +365,14 @@ RunSummary MappingApp::run() {
     scoreLoops(fe.loops(), keyframe_frames, gt.T_world_body, *sum.metrics);
     gt_aligned = alignGroundTruth(traj, gt);
   }
+  {
+    std::vector<std::size_t> keyframe_frames;
+    for (const auto& kf : fe.keyframes()) keyframe_frames.push_back(kf.frame_index);
+    std::vector<registration::MatchStart> starts;
+    for (const auto& row : frame_rows) starts.push_back(row.start);
+    sum.ledger = matcherLedger(fe.loops(), keyframe_frames, fe.statuses(), starts, traj,
+                               gt.T_world_body);
+  }
   const std::vector<Isometry3d>& gt_plot = gt_aligned.T_world_body;
   const nlohmann::json metrics_json = metricsJson(sum, gt, source->readErrors(), options_.input);
   writeTextAtomically(file("metrics.json"), metrics_json.dump(2) + "\n");
@@ -414,6 +472,19 @@ std::string formatSummary(const RunSummary& s) {
          << fmt(m.loop_error_max_deg) << " deg\n";
   } else {
     os << "ground truth    none (no metrics)\n";
+  }
+  if (s.matcher != "icp") {
+    // Where the network's pose was the one refined and taken (the rest started from the guess).
+    auto site = [&](const char* what, const MatcherSite& m, const char* taken) {
+      os << what << m.results << " results, " << m.network << " from the network's pose; "
+         << m.taken << ' ' << taken << ", " << m.taken_network << " from the network's pose";
+      if (m.checked > 0)
+        os << " (wrong vs truth: " << m.wrong << ", " << m.wrong_network
+           << " of them the network's)";
+      os << '\n';
+    };
+    site("network, loops  ", s.ledger.loop_verification, "accepted");
+    site("network, recov. ", s.ledger.recovery, "recovered");
   }
   os << "speed           " << fmt(s.frames_per_second, 2) << " frames/s (" << fmt(s.wall_s, 1)
      << " s wall)\n";

@@ -24,6 +24,7 @@ FrameRow frameRow(const frontend::FrameResult& r) {
           registration::weakestTranslationSigma(r.match.information),
           r.preprocess.points_in,
           r.preprocess.points_out,
+          r.match.start,
           r.reason};
 }
 
@@ -33,7 +34,7 @@ std::string framesCsv(const frontend::Frontend& fe, const std::vector<Isometry3d
   const auto kf_of = fe.frameKeyframes();
   std::ostringstream os;
   os << "# frame,timestamp,status,keyframe_id,is_keyframe,quality,inlier_ratio,rmse_m,"
-        "points_in,points_used,conditioning,weakest_sigma_m,reason\n";
+        "points_in,points_used,conditioning,weakest_sigma_m,start,reason\n";
   std::vector<bool> is_kf(traj.size(), false);
   for (const auto& kf : fe.keyframes())
     if (kf.frame_index < is_kf.size()) is_kf[kf.frame_index] = true;
@@ -43,14 +44,15 @@ std::string framesCsv(const frontend::Frontend& fe, const std::vector<Isometry3d
        << (is_kf[i] ? 1 : 0) << ',' << std::setprecision(6) << rows[i].quality << ','
        << rows[i].inlier_ratio << ',' << rows[i].rmse << ',' << rows[i].points_in << ','
        << rows[i].points_used << ',' << rows[i].conditioning << ',' << rows[i].weakest_sigma
-       << ",\"" << csvQuoted(rows[i].reason) << '"' << std::setprecision(17) << '\n';
+       << ',' << registration::toString(rows[i].start) << ",\"" << csvQuoted(rows[i].reason)
+       << '"' << std::setprecision(17) << '\n';
   return os.str();
 }
 
 std::string loopsCsv(const frontend::Frontend& fe) {
   std::ostringstream os;
   os << "# from_keyframe,to_keyframe,from_frame,to_frame,accepted,quality,inlier_ratio,"
-        "descriptor_distance,correction_m,tx,ty,tz,qx,qy,qz,qw,relocalisation,reason\n";
+        "descriptor_distance,correction_m,tx,ty,tz,qx,qy,qz,qw,relocalisation,start,reason\n";
   for (const auto& lc : fe.loops()) {
     const Eigen::Quaterniond q(lc.T_from_to.linear());
     const Eigen::Vector3d t = lc.T_from_to.translation();
@@ -58,7 +60,8 @@ std::string loopsCsv(const frontend::Frontend& fe) {
        << fe.keyframes()[lc.to].frame_index << ',' << (lc.accepted ? 1 : 0) << ',' << lc.quality
        << ',' << lc.inlier_ratio << ',' << lc.descriptor_distance << ',' << lc.correction << ','
        << t.x() << ',' << t.y() << ',' << t.z() << ',' << q.x() << ',' << q.y() << ',' << q.z()
-       << ',' << q.w() << ',' << (lc.relocalisation ? 1 : 0) << ",\"" << csvQuoted(lc.reason)
+       << ',' << q.w() << ',' << (lc.relocalisation ? 1 : 0) << ','
+       << registration::toString(lc.start) << ",\"" << csvQuoted(lc.reason)
        << "\"\n";
   }
   return os.str();
@@ -113,6 +116,19 @@ nlohmann::json metricsJson(const RunSummary& sum, const io::FrameGroundTruth& gt
   j["loop_error_max_m"] = have ? jsonNumber(m.loop_error_max_m) : nlohmann::json();
   j["loop_error_max_deg"] = have ? jsonNumber(m.loop_error_max_deg) : nlohmann::json();
   j["loop_candidates"] = st.loop_candidates;
+  auto site = [](const MatcherSite& m) {
+    nlohmann::json o;
+    o["results"] = m.results;
+    o["from_network"] = m.network;
+    o["taken"] = m.taken;
+    o["taken_from_network"] = m.taken_network;
+    o["checked"] = m.checked;
+    o["wrong"] = m.wrong;
+    o["wrong_from_network"] = m.wrong_network;
+    return o;
+  };
+  j["matcher_ledger"] = {{"loop_verification", site(sum.ledger.loop_verification)},
+                         {"recovery", site(sum.ledger.recovery)}};
   j["frames"] = sum.frames;
   j["keyframes"] = st.keyframes;
   j["keyframes_dropped"] = st.keyframes_dropped;

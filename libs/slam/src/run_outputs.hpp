@@ -18,6 +18,7 @@ namespace obm::slam {
 struct FrameRow {
   double quality = 0.0, inlier_ratio = 0.0, rmse = 0.0, conditioning = 0.0, weakest_sigma = 0.0;
   std::size_t points_in = 0, points_used = 0;
+  registration::MatchStart start = registration::MatchStart::Guess;  ///< of the taken match
   std::string reason;
 };
 FrameRow frameRow(const frontend::FrameResult& r);

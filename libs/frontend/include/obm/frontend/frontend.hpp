@@ -88,6 +88,8 @@ struct LoopClosure {
   double correction = 0.0;  ///< [m] distance between the verified pose and the current estimate
   double correction_rotation = 0.0;  ///< [rad] rotation between the verified pose and the estimate
   bool accepted = false;
+  /// Where the matcher's refinement started: the guess from the graph, or the network's pose.
+  registration::MatchStart start = registration::MatchStart::Guess;
   /// Found by relocalisation (place recognition over the whole map after the drive was lost), not
   /// by the proximity search around the estimate.
   bool relocalisation = false;

@@ -31,6 +31,25 @@ enum class MatchStatus {
 /// "degenerate".
 const char* toString(MatchStatus status);
 
+/// Where the refinement of the returned pose started. Whether the network's own pose was the one
+/// taken is what a ledger of the network's use counts (obm-map's metrics.json, "matcher_ledger").
+enum class MatchStart {
+  Guess,       ///< the caller's initial guess (ICP; OBMNet + ICP when the guess paired more)
+  Network,     ///< the network's pose (its first hypothesis, also from a turned start)
+  Hypothesis,  ///< another of the network's yaw hypotheses
+  Heading,     ///< a blind heading turned from the guess
+  Turn,        ///< a start turned from the guess, kept over the network's pose from it
+  Search,      ///< a pose of the correlative search
+};
+
+/// "guess", "network", "hypothesis", "heading", "turn", "search".
+const char* toString(MatchStart start);
+
+/// True for the starts that are the network's poses (Network, Hypothesis).
+inline bool fromNetwork(MatchStart start) {
+  return start == MatchStart::Network || start == MatchStart::Hypothesis;
+}
+
 /// Result of ScanMatcher::match.
 struct MatchResult {
   Isometry3d T_target_source = Isometry3d::Identity();  ///< p_target = T · p_source
@@ -68,6 +87,7 @@ struct MatchResult {
   /// rejects bad matches of any of them. The network's own view is `network_confidence`.
   double quality = 0.0;
   double runtime_ms = 0.0;  ///< wall time of match() including preprocessing
+  MatchStart start = MatchStart::Guess;  ///< where the refinement of T_target_source started
 
   bool ok() const { return status == MatchStatus::Ok; }
 };

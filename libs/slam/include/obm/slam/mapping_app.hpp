@@ -80,6 +80,38 @@ void scoreLoops(const std::vector<frontend::LoopClosure>& loops,
                 const std::vector<std::size_t>& keyframe_frames,
                 const std::vector<std::optional<Isometry3d>>& T_world_body, TrajectoryMetrics& m);
 
+/// The scan matcher's results at one call site (loop verification or recovery), and how many
+/// started from the network's own pose (registration::fromNetwork: the network's pose was
+/// refined, not the caller's guess or a start the matcher made up).
+struct MatcherSite {
+  std::size_t results = 0;        ///< results the site judged (loops: every verified candidate)
+  std::size_t network = 0;        ///< … whose refinement started from the network's pose
+  std::size_t taken = 0;          ///< accepted loops / recovered frames
+  std::size_t taken_network = 0;  ///< … from the network's pose
+  std::size_t checked = 0;        ///< taken, with ground truth at both ends
+  /// Checked and off the truth by more than kWrongLoopTranslation or kWrongLoopRotationDeg
+  /// (loops: the loop's relative pose; recovery: the frame's motion from the frame before).
+  std::size_t wrong = 0;
+  std::size_t wrong_network = 0;  ///< … from the network's pose
+};
+
+/// Where the network's results were taken and whether they were right: what decides which call
+/// sites should run it (metrics.json "matcher_ledger"; docs/obm-map.md).
+struct MatcherLedger {
+  MatcherSite loop_verification;
+  MatcherSite recovery;
+};
+
+/// The ledger of a run. `starts` and `statuses` are per frame (the start of each frame's taken
+/// match, its tracking status); `traj` the final trajectory; T_world_body the ground truth per
+/// frame (empty or nullopt entries: not checked).
+MatcherLedger matcherLedger(const std::vector<frontend::LoopClosure>& loops,
+                            const std::vector<std::size_t>& keyframe_frames,
+                            const std::vector<frontend::TrackingStatus>& statuses,
+                            const std::vector<registration::MatchStart>& starts,
+                            const std::vector<Isometry3d>& traj,
+                            const std::vector<std::optional<Isometry3d>>& T_world_body);
+
 /// What a run did.
 struct RunSummary {
   std::string input_kind;  ///< "kitti", "tum-rgbd", "icl-nuim", "7scenes", "redwood", "rawlog"
@@ -92,6 +124,7 @@ struct RunSummary {
   double frames_per_second = 0.0;
   std::map<std::string, double> stages_ms;   ///< per-stage totals (timing.json)
   std::optional<TrajectoryMetrics> metrics;  ///< when ground truth was available
+  MatcherLedger ledger;                      ///< the network's use per call site
   std::string ground_truth;                  ///< the ground-truth file used ("" = none)
   bool map_rebuilt = false;                  ///< the OctoMap was rebuilt at the final poses
   std::vector<std::string> files;            ///< files written
