@@ -23,6 +23,11 @@
 # OUT_DIR/runs/rgbd_open3d*/; the table's "indoor RGB-D" part scores all of them from their
 # trajectory_tum.txt (ATE after rigid alignment, RPE over 1 frame) and lists obm-map's loops with
 # the number its own check against the truth calls wrong (> 0.5 m or 2°).
+# The LiDAR parts (urban, k00) also run KISS-ICP, the LiDAR odometry most users would pick instead
+# (../shared/peers/kiss_icp, built into OUT_DIR/peers/kiss_icp; its defaults but de-skewing and the
+# 0.205° KITTI vertical-angle correction, both off: simulated sweeps have neither), on the same KITTI
+# folders into OUT_DIR/runs/NAME_kiss/ (poses_kitti.txt, camera-0 poses as poses.txt); the table's
+# "beside KISS-ICP" part scores it and obm-map's runs by the same code (KITTI devkit, ATE).
 #
 # Options:
 #   --build DIR         build folder with bin/obm-map and bin/obm-sim      [default: ROOT/build]
@@ -35,10 +40,10 @@
 #   --seed S            obm-sim master seed of every sequence              [default: 5]
 #   --mrpt-frames N     prefix of the urban rawlog given to icp-slam       [default: 600]
 #   --indoor-config F   configuration of the indoor runs           [default: config/map_indoor.yaml]
-#                       (each indoor sequence is also run with its colour and depth-noise terms
-#                       off, NAME_geometric: the geometric ICP-only tracking, same file otherwise)
+#                       (NAME_icp and NAME_geometric override it as described above)
 #   --o3d-methods LIST  Open3D peers of the indoor part, comma-separated [default: hybrid,colored_icp]
 #   --nice N            niceness of every run                              [default: 5]
+#   --peers DIR         third-party peers (kiss_icp/)          [default: ROOT/../shared/peers]
 #   --resume            keep runs that already have their results in OUT_DIR (an interrupted
 #                       benchmark goes on where it stopped; the table is rebuilt from all runs)
 #
@@ -58,8 +63,9 @@ INDOOR_CFG=$ROOT/config/map_indoor.yaml
 NICE=5
 SEED=5
 RESUME=0
+PEERS=$ROOT/../shared/peers
 
-usage() { sed -n '2,40p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { awk 'NR == 1 { next } /^#/ { sub(/^# ?/, ""); print; next } { exit }' "$0"; }
 POS=()
 while [[ $# -gt 0 ]]; do
   case $1 in
@@ -71,6 +77,7 @@ while [[ $# -gt 0 ]]; do
     --nice) NICE=$2; shift 2 ;;
     --o3d-methods) O3D_METHODS=$2; shift 2 ;;
     --seed) SEED=$2; shift 2 ;;
+    --peers) PEERS=$(cd "$2" && pwd); shift 2 ;;
     --resume) RESUME=1; shift ;;
     -h|--help) usage; exit 0 ;;
     -*) echo "bench_slam.sh: unknown option $1" >&2; usage >&2; exit 2 ;;
@@ -124,11 +131,17 @@ run_tool() {
   ( while true; do load1; sleep 10; done ) > "$dir/load_samples.txt" &
   local sampler=$!
   local rc=0
-  nice -n "$NICE" "$bin" "$@" -o "$dir" -q || rc=$?
+  rm -f "$dir/failed.txt"
+  nice -n "$NICE" "$bin" "$@" -o "$dir" -q 2> "$dir/stderr.txt" || rc=$?
   kill "$sampler" 2>/dev/null || true
   wait "$sampler" 2>/dev/null || true
   echo "after:  $(uptime)" >> "$dir/load.txt"
-  [[ $rc -eq 0 ]] || { echo "bench_slam.sh: $tool failed for $name (exit $rc)" >&2; exit 1; }
+  # A failed run is a result too: it is named in the table (failed.txt: the exit code and the
+  # last line of its stderr.txt) and the benchmark goes on.
+  if [[ $rc -ne 0 ]]; then
+    echo "exit $rc: $(tail -n 1 "$dir/stderr.txt")" > "$dir/failed.txt"
+    echo "bench_slam.sh: $tool failed for $name ($(cat "$dir/failed.txt"))" >&2
+  fi
 }
 
 # run_map NAME obm-map-args...: one obm-map run into OUT/runs/NAME with the load around it.
@@ -141,6 +154,39 @@ run_peer() {
   run_tool "$1" obm-o3d-odometry "$O3D" trajectory_tum.txt -i "$3" --method "$2"
 }
 
+# run_kiss NAME KITTI_DIR: KISS-ICP on a KITTI folder into OUT/runs/NAME/, timed,
+# with the load around it as run_tool does. Skipped with a note when the peer is missing.
+KISS=""
+run_kiss() {
+  local name=$1 input=$2 dir=$OUT/runs/$1
+  if [[ -z $KISS ]]; then
+    if [[ ! -x $PEERS/kiss_icp/build.sh ]]; then
+      echo "bench_slam.sh: $PEERS/kiss_icp missing: no KISS-ICP rows" >&2
+      return
+    fi
+    KISS=$("$PEERS/kiss_icp/build.sh" "$OUT/peers/kiss_icp" | tail -n 1)
+  fi
+  if [[ $RESUME -eq 1 && -f $dir/poses_kitti.txt && -f $dir/wall.txt ]]; then
+    echo "== $name: kept (--resume)"
+    return
+  fi
+  mkdir -p "$dir"
+  echo "kiss_kitti_driver $input $dir/poses_kitti.txt --deskew 0 --correct 0" > "$dir/command.txt"
+  echo "== $name: KISS-ICP on $input"
+  echo "before: $(uptime)" > "$dir/load.txt"
+  ( while true; do load1; sleep 10; done ) > "$dir/load_samples.txt" &
+  local sampler=$! start end
+  start=$(date +%s.%N)
+  nice -n "$NICE" "$KISS" "$input" "$dir/poses_kitti.txt.tmp" --deskew 0 --correct 0 > "$dir/log.txt" 2>&1 ||
+    { kill "$sampler"; echo "bench_slam.sh: KISS-ICP failed for $name" >&2; exit 1; }
+  end=$(date +%s.%N)
+  kill "$sampler" 2>/dev/null || true
+  wait "$sampler" 2>/dev/null || true
+  mv "$dir/poses_kitti.txt.tmp" "$dir/poses_kitti.txt"
+  echo "after:  $(uptime)" >> "$dir/load.txt"
+  echo "$start $end" > "$dir/wall.txt"
+}
+
 KITTI_CFG=$ROOT/config/map_kitti.yaml
 
 if want urban; then
@@ -148,6 +194,7 @@ if want urban; then
   run_map urban "-c" "$KITTI_CFG" -i "$DATA/urban_full" -g "$DATA/urban_full/poses.txt"
   run_map urban_noloops -c "$KITTI_CFG" -i "$DATA/urban_full" -g "$DATA/urban_full/poses.txt" \
     --no-loops
+  run_kiss urban_kiss "$DATA/urban_full"
 fi
 
 if want k00; then
@@ -155,6 +202,7 @@ if want k00; then
   ensure_seq k00 kitti00_gt "$K00_FRAMES"
   run_map k00 -c "$KITTI_CFG" -i "$DATA/k00" -g "$DATA/k00/poses.txt"
   run_map k00_noloops -c "$KITTI_CFG" -i "$DATA/k00" -g "$DATA/k00/poses.txt" --no-loops
+  run_kiss k00_kiss "$DATA/k00"
 fi
 
 if want indoor; then
@@ -416,6 +464,45 @@ print('|---|---|---|---|---|---|---|---|---|---|---|---|')
 for r in rows:
     print('| ' + ' | '.join(r) + ' |')
 
+# KISS-ICP beside obm-map on the same KITTI folders: every row scored here from its camera-0 poses
+# against the folder's poses.txt (KITTI devkit segments, ATE after rigid alignment).
+def read_kitti(path):
+    poses = []
+    for line in open(path):
+        v = [float(x) for x in line.split()]
+        if len(v) == 12:
+            poses.append([v[0:4], v[4:8], v[8:12], [0.0, 0.0, 0.0, 1.0]])
+    return poses
+kiss_rows = []
+for seq, label, base in (('urban_full', 'kitti_like_urban', 'urban'), ('k00', 'kitti00_gt', 'k00')):
+    gt_path = os.path.join(data, seq, 'poses.txt')
+    if not os.path.exists(gt_path) or not os.path.exists(os.path.join(out, 'runs', f'{base}_kiss', 'poses_kitti.txt')):
+        continue
+    gt = read_kitti(gt_path)
+    for name, system in ((f'{base}_noloops', 'obm-map --no-loops'), (base, 'obm-map (loops)'),
+                         (f'{base}_kiss', 'KISS-ICP v1.2.3 (no loop closure)')):
+        run = os.path.join(out, 'runs', name)
+        if name.endswith('_kiss'):
+            est = read_kitti(os.path.join(run, 'poses_kitti.txt'))
+            w = open(os.path.join(run, 'wall.txt')).read().split()
+            fps = len(est) / (float(w[1]) - float(w[0]))
+        else:
+            if not os.path.exists(os.path.join(run, 'trajectory_kitti.txt')):
+                continue
+            est = read_kitti(os.path.join(run, 'trajectory_kitti.txt'))
+            t = jload(os.path.join(run, 'timing.json'))
+            fps = t['frames_per_second'] if t else None
+        n = min(len(gt), len(est))
+        te, rr = kitti_errors(gt[:n], est[:n])
+        kiss_rows.append((label, str(n), system, fmt(te, '{:.3f}'), fmt(rr, '{:.3f}'),
+                          f'{ate(gt[:n], est[:n]):.3f} m', fmt(fps, '{:.1f}'), load_range(run)))
+if kiss_rows:
+    print()
+    print('| LiDAR drive, beside KISS-ICP | frames | system | t_err [%] | r_err [°/100 m] | ATE RMSE | frames/s (wall) | load (1 min) |')
+    print('|---|---|---|---|---|---|---|---|')
+    for r in kiss_rows:
+        print('| ' + ' | '.join(r) + ' |')
+
 # MRPT comparison on the same rawlog prefix, all rows scored by this script in the LiDAR frame.
 P = os.path.join(out, 'mrpt', 'urban_prefix')
 if os.path.exists(os.path.join(P, 'groundtruth.txt')):
@@ -520,6 +607,12 @@ for seq, label, gt_file in (('fr1xyz', 'indoor_tum_fr1_xyz (sim)', os.path.join(
         run = os.path.join(out, 'runs', name)
         traj = os.path.join(run, 'trajectory_tum.txt')
         m = jload(os.path.join(run, 'metrics.json'))
+        failed = os.path.join(run, 'failed.txt')
+        if os.path.exists(failed):
+            what = system or (map_label(run) + (', geometric tracking' if name.endswith('_geometric') else ', --matcher icp' if name.endswith('_icp') else ''))
+            indoor.append((label, '—', what, '**run failed**: ' + open(failed).read().strip().replace('|', '/')[:160],
+                           '—', '—', '—', '—', '—', load_range(run)))
+            continue
         if m is None or not os.path.exists(traj):
             continue
         est = read_tum_stamped(traj)

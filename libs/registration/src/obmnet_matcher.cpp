@@ -101,6 +101,14 @@ NetworkStage runNetwork(const obmnet::ObmNetRegistrar& reg, const ObmNetMatcherP
     // The network refuses clouds smaller than its neighbourhoods: an expected failure here.
     s.message = std::string("OBMNet: ") + e.what();
     return s;
+  } catch (const std::exception& e) {
+    // A numerical failure inside LibTorch (c10::Error, e.g. an SVD of non-finite values) fails
+    // this match, not the whole run: the caller treats it as any failed match. Its first line
+    // (LibTorch appends a stack trace) goes to the log.
+    const std::string what = e.what();
+    s.message = "OBMNet failed: " + what.substr(0, what.find('\n'));
+    OBM_LOG_WARN("registration", s.message);
+    return s;
   }
   if (!s.T_target_source.matrix().allFinite()) {
     s.message = "OBMNet: non-finite pose";
