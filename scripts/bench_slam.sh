@@ -406,6 +406,14 @@ def load_range(run, s=None):
     return f'{min(v):.1f}–{max(v):.1f}' if v else '?'
 def fmt(x, f):
     return '—' if x is None else f.format(x)
+def print_table(header, rows, blank_before=True):
+    """A Markdown table: the header's cells, then one line per row."""
+    if blank_before:
+        print()
+    print('| ' + ' | '.join(header) + ' |')
+    print('|' + '---|' * len(header))
+    for r in rows:
+        print('| ' + ' | '.join(r) + ' |')
 def sim_info(seq):
     info = {}
     p = os.path.join(data, seq, 'sim_info.yaml')
@@ -459,10 +467,8 @@ add('k00', 'kitti00_gt', 'loops', True, 'k00_noloops')
 add('fr1xyz', 'indoor_tum_fr1_xyz', 'loops', False)
 add('fr2desk', 'indoor_tum_fr2_desk', 'loops', False)
 
-print('| sequence | frames | length | variant | matcher | t_err [%] | r_err [°/100 m] | ATE RMSE | loops | frames/s (wall) | load (1 min) | target |')
-print('|---|---|---|---|---|---|---|---|---|---|---|---|')
-for r in rows:
-    print('| ' + ' | '.join(r) + ' |')
+print_table(['sequence', 'frames', 'length', 'variant', 'matcher', 't_err [%]', 'r_err [°/100 m]', 'ATE RMSE',
+             'loops', 'frames/s (wall)', 'load (1 min)', 'target'], rows, blank_before=False)
 
 # KISS-ICP beside obm-map on the same KITTI folders: every row scored here from its camera-0 poses
 # against the folder's poses.txt (KITTI devkit segments, ATE after rigid alignment).
@@ -497,11 +503,8 @@ for seq, label, base in (('urban_full', 'kitti_like_urban', 'urban'), ('k00', 'k
         kiss_rows.append((label, str(n), system, fmt(te, '{:.3f}'), fmt(rr, '{:.3f}'),
                           f'{ate(gt[:n], est[:n]):.3f} m', fmt(fps, '{:.1f}'), load_range(run)))
 if kiss_rows:
-    print()
-    print('| LiDAR drive, beside KISS-ICP | frames | system | t_err [%] | r_err [°/100 m] | ATE RMSE | frames/s (wall) | load (1 min) |')
-    print('|---|---|---|---|---|---|---|---|')
-    for r in kiss_rows:
-        print('| ' + ' | '.join(r) + ' |')
+    print_table(['LiDAR drive, beside KISS-ICP', 'frames', 'system', 't_err [%]', 'r_err [°/100 m]', 'ATE RMSE',
+                 'frames/s (wall)', 'load (1 min)'], kiss_rows)
 
 # MRPT comparison on the same rawlog prefix, all rows scored by this script in the LiDAR frame.
 P = os.path.join(out, 'mrpt', 'urban_prefix')
@@ -642,11 +645,8 @@ for seq, label, gt_file in (('fr1xyz', 'indoor_tum_fr1_xyz (sim)', os.path.join(
         indoor.append((label, str(len(est)), system, f'{100 * a:.2f} cm', fmt(rt and 100 * rt, '{:.3f} cm'),
                        fmt(rr, '{:.3f}°'), failures, loops, fmt(fps, '{:.1f}'), load_range(run)))
 if indoor:
-    print()
-    print('| indoor RGB-D sequence | frames | system | ATE RMSE | RPE (1 frame) trans | RPE (1 frame) rot | odometry failures | loops (wrong) | frames/s (wall) | load (1 min) |')
-    print('|---|---|---|---|---|---|---|---|---|---|')
-    for r in indoor:
-        print('| ' + ' | '.join(r) + ' |')
+    print_table(['indoor RGB-D sequence', 'frames', 'system', 'ATE RMSE', 'RPE (1 frame) trans', 'RPE (1 frame) rot',
+                 'odometry failures', 'loops (wrong)', 'frames/s (wall)', 'load (1 min)'], indoor)
 PY
 echo "== table: $OUT/table.md"
 cat "$OUT/table.md"

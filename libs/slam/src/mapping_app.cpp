@@ -358,16 +358,14 @@ RunSummary MappingApp::run() {
   const io::FrameGroundTruth gt = source->groundTruth(stamps, cfg.input.max_time_difference);
   sum.ground_truth = gt.path;
   AlignedGroundTruth gt_aligned;  // for the pictures
+  std::vector<std::size_t> keyframe_frames;
+  for (const auto& kf : fe.keyframes()) keyframe_frames.push_back(kf.frame_index);
   if (!gt.path.empty()) {
     sum.metrics = computeMetrics(traj, gt, calib);
-    std::vector<std::size_t> keyframe_frames;
-    for (const auto& kf : fe.keyframes()) keyframe_frames.push_back(kf.frame_index);
     scoreLoops(fe.loops(), keyframe_frames, gt.T_world_body, *sum.metrics);
     gt_aligned = alignGroundTruth(traj, gt);
   }
   {
-    std::vector<std::size_t> keyframe_frames;
-    for (const auto& kf : fe.keyframes()) keyframe_frames.push_back(kf.frame_index);
     std::vector<registration::MatchStart> starts;
     for (const auto& row : frame_rows) starts.push_back(row.start);
     sum.ledger = matcherLedger(fe.loops(), keyframe_frames, fe.statuses(), starts, traj,
